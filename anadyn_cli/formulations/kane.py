@@ -1,0 +1,79 @@
+"""Kane's method: Fr + Fr* = 0 for r = 1..n, with generalized speeds u = dq.
+
+Generalized active forces, from gravity on each mass centre and each
+actuator's effort on its body with the reaction on the parent:
+
+    Fr  = sum_i m_i V_i[:, r] . g_i + sum_k tau_k a_k . (J_child - J_parent)[:, r]
+
+where g_i is gravity in body axes and J is the partial angular velocity
+(revolute) or the partial velocity of the coincident points (prismatic).
+Generalized inertia forces, with a_i, alpha_i the mass-centre and angular
+accelerations:
+
+    Fr* = -sum_i [ m_i V_i[:, r] . a_i + W_i[:, r] . (I_i alpha_i + w_i x I_i w_i) ]
+
+Splitting a_i = V_i ddq + a_i(vp), alpha_i = W_i ddq + alpha_i(vp) gives
+M = sum_i m V^T V + W^T I W and the velocity-product part of F.  The
+velocity-product accelerations are propagated from parent to child, so no
+expression is differentiated.
+"""
+from __future__ import annotations
+
+import sympy as sp
+
+from ..eom import EquationsOfMotion
+from ..kinematics import Kinematics, cross_columns
+from ..model.robot import Robot
+
+Matrix = sp.ImmutableMatrix
+
+
+def equations(robot: Robot, kin: Kinematics) -> EquationsOfMotion:
+    q, dq = kin.q, kin.dq
+    n = len(q)
+    dq_vec = Matrix(dq)
+    zero3 = Matrix.zeros(3, 1)
+    M = sp.zeros(n, n)
+    F = sp.zeros(n, 1)
+    omega, alpha, acc_origin = [], [], []
+    for b in kin.bodies:
+        Rt = b.R_local.T
+        if b.parent is None:
+            w_p, al_p, ao_p = zero3, zero3, zero3
+        else:
+            w_p, al_p, ao_p = omega[b.parent], alpha[b.parent], acc_origin[b.parent]
+        rate = (b.joint_rates * dq_vec)[0]                       # theta-dot or d-dot
+        rate2 = (dq_vec.T * sp.hessian(b.displacement, q) * dq_vec)[0] if n else 0
+        w = Matrix(b.W * dq_vec)
+        w_p_here = Matrix(Rt * w_p)                              # parent's w, body axes
+        # velocity-product accelerations, body axes
+        al = Matrix(Rt * al_p)
+        ao = Matrix(Rt * (ao_p + al_p.cross(b.origin) + w_p.cross(w_p.cross(b.origin))))
+        if b.body.joint.type == "revolute":
+            al = Matrix(al + b.axis * rate2 + w_p_here.cross(b.axis * rate))
+        elif b.body.joint.type == "prismatic":
+            ao = Matrix(ao + 2 * w_p_here.cross(b.axis * rate) + b.axis * rate2)
+        ac = Matrix(ao + al.cross(b.com) + w.cross(w.cross(b.com)))
+        g = Matrix(b.R.T * kin.gravity)                        # gravity, body axes
+        omega.append(w), alpha.append(al), acc_origin.append(ao)
+        # projections on the partial velocities
+        I, m = b.inertia, b.mass
+        M += m * b.V.T * b.V + b.W.T * I * b.W
+        F += b.V.T * (m * g - m * ac) - b.W.T * (I * al + w.cross(I * w))
+    B = sp.zeros(n, len(robot.actuators))
+    index = {kb.body.name: i for i, kb in enumerate(kin.bodies)}
+    for k, actuator in enumerate(robot.actuators):
+        b = kin.bodies[index[actuator.body]]
+        parent = kin.bodies[b.parent] if b.parent is not None else None
+        Rt = b.R_local.T
+        if b.body.joint.type == "revolute":     # torque on child, reaction on parent
+            child, carried = b.W, (Rt * parent.W if parent else Matrix.zeros(3, n))
+        else:                                    # force at coincident points
+            child = b.Vo
+            carried = (Rt * (parent.Vo + cross_columns(parent.W, b.origin))
+                       if parent else Matrix.zeros(3, n))
+        B[:, k] = (b.axis.T * (child - carried)).T
+    return EquationsOfMotion(
+        method="kane", q=q, dq=dq, ddq=tuple(sp.Symbol("dd" + s.name, real=True) for s in q),
+        efforts=tuple(sp.Symbol(a.name, real=True) for a in robot.actuators),
+        M=Matrix(M), F=Matrix(F), B=Matrix(B))

@@ -1,0 +1,59 @@
+"""Lagrange's equations: d/dt(dT/d(dq_r)) - dT/dq_r + dV/dq_r = Q_r.
+
+Kinetic energy from mass-centre velocities, angular velocities and central
+inertia tensors, and potential energy of gravity:
+
+    T = sum_i 1/2 m_i v_i . v_i + 1/2 w_i . I_i w_i,   V = -sum_i m_i g . r_i
+
+With p_r = dT/d(dq_r), T having no explicit time dependence:
+
+    M_rs = d p_r / d(dq_s)
+    F_r  = -sum_s (d p_r / dq_s) dq_s + dT/dq_r - dV/dq_r
+
+Actuators enter by virtual work: an effort tau_k along a joint whose
+displacement is theta_k(q) does tau_k * d theta_k, so B_rk = d theta_k / dq_r.
+"""
+from __future__ import annotations
+
+import sympy as sp
+
+from ..eom import EquationsOfMotion
+from ..kinematics import Kinematics
+from ..model.robot import Robot
+from .derivative import Derivative
+
+Matrix = sp.ImmutableMatrix
+
+
+def energies(kin: Kinematics) -> tuple[sp.Expr, sp.Expr]:
+    """(T, V) of the whole robot."""
+    T, V = sp.Integer(0), sp.Integer(0)
+    for i, b in enumerate(kin.bodies):
+        v, w = kin.velocity(i), kin.angular_velocity(i)
+        T += b.mass * v.dot(v) / 2 + (w.T * b.inertia * w)[0] / 2
+        V -= b.mass * kin.gravity.dot(b.position)
+    return T, V
+
+
+def equations(robot: Robot, kin: Kinematics) -> EquationsOfMotion:
+    q, dq = kin.q, kin.dq
+    n = len(q)
+    T, V = energies(kin)
+    momenta = [Derivative({dq[r]: 1})(T) for r in range(n)]
+    M = sp.zeros(n, n)
+    for r in range(n):
+        for s in range(r, n):
+            M[r, s] = M[s, r] = Derivative({dq[s]: 1})(momenta[r])
+    rate_of_change = Derivative(dict(zip(q, dq)))     # d/dt along q with ddq = 0
+    L = T - V
+    F = Matrix([-rate_of_change(momenta[r]) + Derivative({q[r]: 1})(L) for r in range(n)])
+    index = {b.body.name: i for i, b in enumerate(kin.bodies)}
+    B = sp.zeros(n, len(robot.actuators))
+    for k, actuator in enumerate(robot.actuators):
+        theta = kin.bodies[index[actuator.body]].displacement
+        for r in range(n):
+            B[r, k] = sp.diff(theta, q[r])
+    return EquationsOfMotion(
+        method="lagrange", q=q, dq=dq, ddq=tuple(sp.Symbol("dd" + s.name, real=True) for s in q),
+        efforts=tuple(sp.Symbol(a.name, real=True) for a in robot.actuators),
+        M=Matrix(M), F=F, B=Matrix(B))

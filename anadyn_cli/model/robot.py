@@ -1,0 +1,146 @@
+"""The validated robot description: frozen dataclasses, SymPy-valued.
+
+Every length is in m, angle in rad, mass in kg, inertia in kg*m^2, time in s.
+Quantities that the file gives as expressions stay SymPy expressions in the
+parameter symbols; ``Robot.parameter_values`` maps each symbol to its number.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping
+
+import sympy as sp
+
+Vector = tuple[sp.Expr, sp.Expr, sp.Expr]
+JOINT_TYPES = ("revolute", "prismatic", "fixed")
+GROUND = "ground"
+
+
+def frozen_map(items) -> Mapping:
+    """A read-only dict (keeps insertion order)."""
+    return MappingProxyType(dict(items))
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    """A generalized coordinate q, its rate dq and its acceleration ddq."""
+    name: str
+    initial: sp.Expr          # q(0)
+    rate: sp.Expr             # dq(0)
+    unit: str                 # "rad" or "m", from the first joint that uses it
+
+    @property
+    def symbol(self) -> sp.Symbol:
+        return sp.Symbol(self.name, real=True)
+
+    @property
+    def rate_symbol(self) -> sp.Symbol:
+        return sp.Symbol("d" + self.name, real=True)
+
+    @property
+    def acceleration_symbol(self) -> sp.Symbol:
+        return sp.Symbol("dd" + self.name, real=True)
+
+
+@dataclass(frozen=True)
+class Joint:
+    """Joint frame = parent frame moved by ``origin`` and turned by ``rpy``
+    (R = Rz(yaw) Ry(pitch) Rx(roll)); the body frame is the joint frame turned
+    about (revolute) or slid along (prismatic) ``axis`` by ``displacement``."""
+    type: str
+    axis: Vector              # unit vector in the joint frame (zero for fixed)
+    origin: Vector
+    rpy: Vector
+    displacement: sp.Expr     # expression of the coordinates (0 for fixed)
+
+
+@dataclass(frozen=True)
+class Body:
+    name: str
+    parent: str               # GROUND or an earlier body's name
+    joint: Joint
+    mass: sp.Expr
+    com: Vector               # centre of mass in body axes
+    inertia: sp.ImmutableMatrix   # central inertia tensor in body axes
+
+
+@dataclass(frozen=True)
+class Actuator:
+    """An effort along ``body``'s joint axis acting on ``body``, with the equal
+    and opposite reaction on its parent: a torque (N*m) for a revolute joint,
+    a force (N) for a prismatic one."""
+    name: str
+    body: str
+    unit: str                 # "N*m" or "N"
+
+
+@dataclass(frozen=True)
+class Controller:
+    gains: Mapping[str, sp.Expr]      # gain name -> number
+    laws: Mapping[str, sp.Expr]       # actuator name -> expression of t, q, dq
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Prescribed motion q(t) for 0 <= t <= duration.
+
+    kind "cycloidal": q0 + (qf - q0)/T * (t - T/(2 pi) sin(2 pi t/T));
+    kind "quintic":   q0 + (qf - q0) * (10 s^3 - 15 s^4 + 6 s^5), s = t/T;
+    kind "expression": the given expressions of t (``expressions``).
+    """
+    kind: str
+    duration: sp.Expr
+    start: Mapping[str, sp.Expr]
+    end: Mapping[str, sp.Expr]
+    expressions: Mapping[str, sp.Expr]
+
+
+@dataclass(frozen=True)
+class Simulation:
+    t_end: float | None = None
+    output_step: float | None = None
+    method: str | None = None
+    rtol: float | None = None
+    atol: float | None = None
+
+
+@dataclass(frozen=True)
+class Robot:
+    name: str
+    source: str                            # file the robot came from
+    digest: str                            # sha256 of the file's bytes
+    parameters: Mapping[str, sp.Expr]      # name -> number, or expression of earlier ones
+    gravity: Vector                        # world frame, m/s^2
+    coordinates: tuple[Coordinate, ...]
+    bodies: tuple[Body, ...]               # parents before children
+    actuators: tuple[Actuator, ...]
+    controller: Controller | None = None
+    trajectory: Trajectory | None = None
+    simulation: Simulation = field(default_factory=Simulation)
+    description: str = ""
+
+    def parameter_substitution(self, symbolic: bool = False) -> dict[sp.Symbol, sp.Expr]:
+        """Parameter symbol -> value, for ``xreplace``.
+
+        Numeric (default): every parameter -> its number.  Symbolic: only the
+        parameters defined by other parameters are replaced (by their
+        definitions), so the result is in the independent parameters.
+        """
+        resolved: dict[sp.Symbol, sp.Expr] = {}
+        for name, definition in self.parameters.items():
+            value = definition.xreplace(resolved)
+            if not symbolic or definition.free_symbols:
+                resolved[sp.Symbol(name, real=True)] = value
+        return resolved
+
+    @property
+    def q(self) -> tuple[sp.Symbol, ...]:
+        return tuple(c.symbol for c in self.coordinates)
+
+    @property
+    def dq(self) -> tuple[sp.Symbol, ...]:
+        return tuple(c.rate_symbol for c in self.coordinates)
+
+    def body(self, name: str) -> Body:
+        return next(b for b in self.bodies if b.name == name)
