@@ -25,14 +25,18 @@ from .derivative import Derivative
 Matrix = sp.ImmutableMatrix
 
 
+def body_energies(kin: Kinematics, i: int) -> tuple[sp.Expr, sp.Expr]:
+    """(T_i, V_i) = (1/2 m v.v + 1/2 w.I w, -m g.r) of body i."""
+    b = kin.bodies[i]
+    v, w = kin.velocity(i), kin.angular_velocity(i)
+    kinetic = b.mass * v.dot(v) / 2 + (w.T * b.inertia * w)[0] / 2
+    return kinetic, -b.mass * kin.gravity.dot(b.position)
+
+
 def energies(kin: Kinematics) -> tuple[sp.Expr, sp.Expr]:
     """(T, V) of the whole robot."""
-    T, V = sp.Integer(0), sp.Integer(0)
-    for i, b in enumerate(kin.bodies):
-        v, w = kin.velocity(i), kin.angular_velocity(i)
-        T += b.mass * v.dot(v) / 2 + (w.T * b.inertia * w)[0] / 2
-        V -= b.mass * kin.gravity.dot(b.position)
-    return T, V
+    parts = [body_energies(kin, i) for i in range(len(kin.bodies))]
+    return sp.Add(*[p[0] for p in parts]), sp.Add(*[p[1] for p in parts])
 
 
 def equations(robot: Robot, kin: Kinematics) -> EquationsOfMotion:
