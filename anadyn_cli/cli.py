@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import os
 import sys
-from enum import Enum
-from pathlib import Path
 
 import typer
 
@@ -21,40 +19,14 @@ app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Analytical dynamics of robot arms: Kane's method and Lagrange's "
                        "equations from a YAML robot description.")
 
-RobotArg = typer.Argument(..., help="Robot description (YAML).", show_default=False)
-
-
-class Method(str, Enum):
-    kane = "kane"
-    lagrange = "lagrange"
-
-
-class Format(str, Enum):
-    text = "text"
-    latex = "latex"
-
-
-@app.command()
-def equations(
-    robot: Path = RobotArg,
-    method: Method = typer.Option(Method.kane, help="Formulation."),
-    fmt: Format = typer.Option(Format.text, "--format", help="Output format."),
-    symbolic: bool = typer.Option(False, help="Keep the parameters as symbols."),
-    matrices: bool = typer.Option(False, help="Print M, F, B instead of one equation per "
-                                              "coordinate."),
-) -> None:
-    """Print the equations of motion, M(q) ddq = F(q, dq) + B(q) tau."""
-    from .equations import render
-    from .formulations import derive
-    from .model import load_robot
-
-    eom = derive(load_robot(robot), method.value, symbolic=symbolic)
-    typer.echo(render(eom, fmt.value, "matrices" if matrices else "residual"))
-
 
 @app.callback()
 def _group() -> None:
     """Analytical dynamics of robot arms (every command takes --help)."""
+
+
+def _register_commands() -> None:
+    from . import commands  # noqa: F401  (each module adds its command to ``app``)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -63,6 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     Typer itself reports usage errors (exit 2) and --help; anadyn's own
     errors become one line on stderr with their exit code.
     """
+    _register_commands()
     try:
         app(args=argv, prog_name="anadyn")
     except SystemExit as done:

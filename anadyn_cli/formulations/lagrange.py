@@ -20,7 +20,7 @@ import sympy as sp
 from ..eom import EquationsOfMotion
 from ..kinematics import Kinematics
 from ..model.robot import Robot
-from .derivative import Derivative
+from ..derivative import Derivative
 
 Matrix = sp.ImmutableMatrix
 

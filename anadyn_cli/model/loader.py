@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import difflib
 import hashlib
+import keyword
 import math
 import re
 from pathlib import Path
@@ -22,7 +23,9 @@ from .robot import (GROUND, JOINT_TYPES, Actuator, Body, Controller, Coordinate,
 from .yamlsource import load, read_text
 
 IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,63}\Z")
-RESERVED_NAMES = expressions.RESERVED | {"t", GROUND}
+# names also become Python identifiers in generated code and CSV columns
+RESERVED_NAMES = (expressions.RESERVED | {"t", GROUND, "math", "numpy"}
+                  | set(keyword.kwlist) | set(keyword.softkwlist))
 TRAJECTORY_KINDS = ("cycloidal", "quintic", "expression")
 TOP_KEYS = ("name", "description", "parameters", "gravity", "coordinates", "bodies",
             "actuators", "controller", "trajectory", "simulation")

@@ -1,0 +1,50 @@
+"""anadyn simulate: direct dynamics under the feedback laws."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from ..cli import app
+from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir
+
+
+@app.command()
+def simulate(
+    robot: Path = RobotArg,
+    formulation: Method = FormulationOpt,
+    method: str = typer.Option(None, help="Integrator: auto, odeint, RK45, RK23, DOP853, "
+                                          "Radau, BDF, LSODA [default: from the file, "
+                                          "else auto]."),
+    rtol: float = typer.Option(None, help="Relative tolerance [default: 1e-10]."),
+    atol: float = typer.Option(None, help="Absolute tolerance [default: 1e-12]."),
+    t_end: float = typer.Option(None, "--t-end", help="Horizon in s [default: from the "
+                                                      "file, else 10]."),
+    dt: float = typer.Option(None, "--dt", help="Output step in s [default: from the file, "
+                                                "else 0.01]."),
+    out: Path = OutOpt,
+    plot: bool = typer.Option(True, help="Write simulate.png."),
+) -> None:
+    """Direct dynamics under the robot's feedback laws: simulate.csv and simulate.png."""
+    import time
+
+    from .. import simulate as service
+    from ..model import load_robot
+
+    start = time.perf_counter()
+    model = load_robot(robot)
+    result = service.simulate(model, formulation.value, method=method, rtol=rtol, atol=atol,
+                              t_end=t_end, output_step=dt)
+    written = service.write(result, out_dir(out, model.name), plot=plot)
+    solution = result.solution
+    typer.echo(service.table(result))
+    if solution.reason:
+        typer.echo(f"method: auto -> {solution.method}: {solution.reason}")
+    else:
+        typer.echo(f"method: {solution.method}")
+    typer.echo(f"rhs calls {solution.rhs_calls}, jacobian calls {solution.jacobian_calls}, "
+               f"steps {solution.steps}, rtol {result.settings.rtol:g}, "
+               f"atol {result.settings.atol:g}")
+    split = ", ".join(f"{k} {v:.3f} s" for k, v in result.timings.items())
+    typer.echo(f"time: {split}; total {time.perf_counter() - start:.3f} s")
+    typer.echo("wrote " + ", ".join(str(p) for p in written))

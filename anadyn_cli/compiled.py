@@ -1,0 +1,89 @@
+"""Generated numeric functions, loaded and wrapped for the integrators.
+
+Only NumPy is imported here: a robot whose generated source is cached runs
+without importing SymPy.  The source is anadyn's own output (from
+``numeric.source``), never text from a robot file.
+
+    rhs(t, x)      -> dx/dt = [dq, M^-1 G]   (a fresh array each call)
+    jacobian(t, x) -> [[0, I], [M^-1 K]]     (2n x 2n)
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+class CompiledRobot:
+    """State x = [q, dq]; counts the calls the integrators make."""
+
+    def __init__(self, source: str):
+        namespace: dict[str, object] = {}
+        exec(compile(source, "<anadyn generated>", "exec"), namespace)   # noqa: S102
+        self.source = source
+        self.coordinates: tuple[str, ...] = namespace["COORDINATES"]
+        self.effort_names: tuple[str, ...] = namespace["EFFORTS"]
+        self.n = len(self.coordinates)
+        self._dynamics = namespace["dynamics"]
+        self._jacobian = namespace["dynamics_jacobian"]
+        self._efforts = namespace["efforts"]
+        self._mfb = namespace["mfb"]
+        self.rhs_calls = 0
+        self.jacobian_calls = 0
+        self.failure: tuple[float, np.ndarray, str] | None = None   # first bad state
+
+    def reset_counters(self) -> None:
+        self.rhs_calls = self.jacobian_calls = 0
+        self.failure = None
+
+    def _fail(self, t: float, x: np.ndarray, why: str) -> np.ndarray:
+        """Record the first failure and hand the integrator NaNs, which it cannot step over."""
+        if self.failure is None:
+            self.failure = (float(t), np.array(x, dtype=float), why)
+        return np.full(2 * self.n, np.nan)
+
+    def accelerations(self, t: float, x) -> np.ndarray:
+        """ddq = M^-1 G at one state (np.linalg.LinAlgError if M is singular)."""
+        M, G = self._dynamics(t, *x.tolist())
+        return np.linalg.solve(M, G)
+
+    def rhs(self, t: float, x: np.ndarray) -> np.ndarray:
+        self.rhs_calls += 1
+        n = self.n
+        out = np.empty(2 * n)
+        out[:n] = x[n:]
+        try:
+            out[n:] = self.accelerations(t, x)
+        except np.linalg.LinAlgError:
+            return self._fail(t, x, "singular mass matrix")
+        except (OverflowError, ValueError, ZeroDivisionError) as err:
+            return self._fail(t, x, f"cannot evaluate the equations ({err})")
+        if not np.isfinite(out).all():
+            return self._fail(t, x, "non-finite state derivative")
+        return out
+
+    def rhs_tfirst(self, x: np.ndarray, t: float) -> np.ndarray:
+        """``rhs`` with odeint's argument order (x, t)."""
+        return self.rhs(t, x)
+
+    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        self.jacobian_calls += 1
+        n = self.n
+        values = x.tolist()
+        J = np.zeros((2 * n, 2 * n))
+        J[:n, n:] = np.eye(n)
+        try:
+            M, G = self._dynamics(t, *values)
+            ddq = np.linalg.solve(M, G)
+            M, K = self._jacobian(t, *values, *ddq.tolist())
+            J[n:, :] = np.linalg.solve(M, K)
+        except (np.linalg.LinAlgError, OverflowError, ValueError, ZeroDivisionError):
+            J[n:, :] = np.nan        # rhs reports the failure
+        return J
+
+    def efforts(self, t, q, dq) -> np.ndarray:
+        """Efforts under the control laws; q, dq of shape (n, ...) -> (m, ...)."""
+        tau = self._efforts(t, *q, *dq)
+        return np.moveaxis(tau, -1, 0)
+
+    def mfb(self, q, dq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """M (..., n, n), F (..., n), B (..., n, m) over arrays of states."""
+        return self._mfb(*q, *dq)

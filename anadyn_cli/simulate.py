@@ -1,0 +1,146 @@
+"""Direct dynamics under the robot's feedback laws (passive without a controller).
+
+    x = [q, dq],  dx/dt = [dq, M(q)^-1 (F(q, dq) + B(q) tau(t, q, dq))]
+
+integrated from the coordinates' initial values and rates, with rows at
+t = k * output_step exactly.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from . import integrators, output
+from .build import compile_robot
+from .compiled import CompiledRobot
+from .errors import ModelError, NumericalError
+from .model.robot import Robot, Simulation
+
+DEFAULTS = Simulation(t_end=10.0, output_step=0.01, method="auto", rtol=1e-10, atol=1e-12)
+
+
+@dataclass
+class SimulationResult:
+    robot: Robot
+    settings: Simulation
+    solution: integrators.Solution
+    efforts: np.ndarray                   # m x rows
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.solution.t
+
+    @property
+    def x(self) -> np.ndarray:
+        return self.solution.x
+
+
+def resolve(robot: Robot, **overrides) -> Simulation:
+    """Settings: command line, then the robot file, then anadyn's defaults."""
+    chosen = {k: v for k, v in overrides.items() if v is not None}
+    settings = replace(DEFAULTS, **{k: v for k, v in robot.simulation.__dict__.items()
+                                    if v is not None})
+    settings = replace(settings, **chosen)
+    for key in ("t_end", "output_step", "rtol", "atol"):
+        value = getattr(settings, key)
+        if not (math.isfinite(value) and value > 0):
+            raise ModelError(f"{key} must be a positive number, got {value:g}")
+    if settings.method not in integrators.METHODS:
+        raise ModelError(f"unknown method {settings.method!r}; choose one of "
+                         f"{', '.join(integrators.METHODS)}")
+    if settings.output_step > settings.t_end:
+        raise ModelError(f"output step {settings.output_step:g} s is longer than "
+                         f"t_end {settings.t_end:g} s")
+    return settings
+
+
+def output_grid(t_end: float, step: float) -> np.ndarray:
+    """t = k * step for k = 0, 1, ... up to t_end (inclusive when it is a multiple)."""
+    count = int(math.floor(t_end / step * (1 + 1e-12))) + 1
+    return np.arange(count) * step
+
+
+def initial_state(robot: Robot) -> np.ndarray:
+    return np.array([float(c.initial) for c in robot.coordinates]
+                    + [float(c.rate) for c in robot.coordinates])
+
+
+def simulate(robot: Robot, formulation: str = "kane", compiled: CompiledRobot | None = None,
+             **overrides) -> SimulationResult:
+    """Integrate ``robot``; a failure is returned in ``result.solution``."""
+    settings = resolve(robot, **overrides)
+    timings: dict = {}
+    if compiled is None:
+        compiled = compile_robot(robot, formulation, timings)
+    grid = output_grid(settings.t_end, settings.output_step)
+    solution = integrators.integrate(compiled, initial_state(robot), grid, settings.method,
+                                     settings.rtol, settings.atol)
+    timings["solve"] = solution.wall
+    n = compiled.n
+    q, dq = solution.x[:, :n].T, solution.x[:, n:].T
+    efforts = compiled.efforts(solution.t, q, dq) if robot.actuators else np.zeros((0, len(q[0])))
+    efforts = np.broadcast_to(efforts, (len(robot.actuators), len(solution.t)))
+    return SimulationResult(robot, settings, solution, np.asarray(efforts), timings)
+
+
+def columns(result: SimulationResult) -> tuple[list[str], list[np.ndarray]]:
+    """CSV contract: t, coordinates, rates d<name>, actuator efforts."""
+    names = [c.name for c in result.robot.coordinates]
+    header = ["t", *names, *("d" + n for n in names), *(a.name for a in result.robot.actuators)]
+    return header, [result.t, *result.x.T, *result.efforts]
+
+
+def write(result: SimulationResult, out: Path, plot: bool = True) -> list[Path]:
+    """simulate.csv (+ .png); on failure only simulate.partial.csv, then NumericalError."""
+    out = output.prepare_dir(out)
+    start = time.perf_counter()
+    header, data = columns(result)
+    if not result.solution.success:
+        partial = out / "simulate.partial.csv"
+        output.write_csv(partial, header, data)
+        raise NumericalError(f"{result.robot.source}: {result.solution.message}; "
+                             f"{len(result.t)} rows before it in {partial}")
+    written = [out / "simulate.csv"]
+    output.write_csv(written[0], header, data)
+    if plot:
+        written.append(out / "simulate.png")
+        output.write_plot(written[1], result.t, _panels(result),
+                          f"{result.robot.name}: direct dynamics ({result.solution.method})")
+    (out / "simulate.partial.csv").unlink(missing_ok=True)
+    result.timings["write"] = time.perf_counter() - start
+    return written
+
+
+def _panels(result: SimulationResult):
+    panels = []
+    for i, c in enumerate(result.robot.coordinates):
+        values = result.x[:, i]
+        unit = "deg" if c.unit == "rad" else "m"
+        panels.append((f"{c.name} ({unit})", [(c.name, np.degrees(values) if unit == "deg"
+                                                else values)]))
+    if result.robot.actuators:
+        units = sorted({a.unit for a in result.robot.actuators})
+        panels.append((f"effort ({', '.join(u.replace('*', '·') for u in units)})",
+                       [(a.name, result.efforts[k]) for k, a in enumerate(result.robot.actuators)]))
+    return panels
+
+
+def table(result: SimulationResult, times=range(6)) -> str:
+    """The state at t = 0, 1, ..., 5 s (rows of the output grid), like the chapter."""
+    names = [c.name for c in result.robot.coordinates]
+    header = ["t(s)"] + [h for n in names for h in (n, "d" + n)]
+    n = len(names)
+    lines = ["  ".join(f"{h:>12}" for h in header)]
+    for moment in times:
+        k = int(round(moment / result.settings.output_step))
+        if k >= len(result.t) or abs(result.t[k] - moment) > 1e-9:
+            continue
+        x = result.x[k]
+        values = [result.t[k]] + [v for i in range(n) for v in (x[i], x[n + i])]
+        lines.append("  ".join(f"{v:12.6f}" for v in values))
+    return "\n".join(lines)
