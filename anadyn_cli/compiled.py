@@ -26,6 +26,7 @@ class CompiledRobot:
         self._jacobian = namespace["dynamics_jacobian"]
         self._efforts = namespace["efforts"]
         self._mfb = namespace["mfb"]
+        self._potential = namespace["potential"]
         self.rhs_calls = 0
         self.jacobian_calls = 0
         self.failure: tuple[float, np.ndarray, str] | None = None   # first bad state
@@ -87,3 +88,10 @@ class CompiledRobot:
     def mfb(self, q, dq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """M (..., n, n), F (..., n), B (..., n, m) over arrays of states."""
         return self._mfb(*q, *dq)
+
+    def energy(self, q, dq) -> tuple[np.ndarray, np.ndarray]:
+        """(T, V) over arrays of states: T = 1/2 dq^T M dq, V of gravity."""
+        M, _, _ = self._mfb(*q, *dq)
+        rates = np.moveaxis(np.asarray(dq, dtype=float), 0, -1)
+        kinetic = 0.5 * np.einsum("...i,...ij,...j->...", rates, M, rates)
+        return kinetic, self._potential(*q)[..., 0]

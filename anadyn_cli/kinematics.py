@@ -145,3 +145,8 @@ def build(robot: Robot, symbolic: bool = False) -> Kinematics:
             com=com, inertia=Matrix(body.inertia.xreplace(values)), mass=sub(body.mass)))
     gravity = Matrix([sub(g) for g in robot.gravity])
     return Kinematics(q=q, dq=dq, gravity=gravity, bodies=tuple(result))
+
+
+def potential_energy(kin: Kinematics) -> sp.Expr:
+    """V = -sum_i m_i g . r_i, gravity's potential with V = 0 at the world origin."""
+    return sp.Add(*[-b.mass * kin.gravity.dot(b.position) for b in kin.bodies])

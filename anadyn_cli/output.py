@@ -8,6 +8,7 @@ an earlier good one.  Plots use Matplotlib's Agg backend (no display).
 from __future__ import annotations
 
 import io
+import json
 import os
 import tempfile
 from pathlib import Path
@@ -47,6 +48,11 @@ def write_bytes(path: Path, data: bytes) -> None:
 
 def write_text(path: Path, text: str) -> None:
     write_bytes(path, text.encode("utf-8"))
+
+
+def write_json(path: Path, data: dict) -> None:
+    """A command's key figures (read by ``anadyn batch``)."""
+    write_text(path, json.dumps(data, indent=2, sort_keys=True, default=float) + "\n")
 
 
 def csv_text(header: list[str], columns: list[np.ndarray]) -> str:
