@@ -1,0 +1,4 @@
+"""``python -m anadyn_cli`` runs the command line."""
+from .cli import run
+
+run()
