@@ -1,27 +1,63 @@
-"""Robot -> compiled numeric functions, timing each stage.
+"""Robot -> compiled numeric functions, through the derivation cache.
 
-Derivation and code generation need SymPy; they are imported only here and
-only when the compiled source is not already at hand.
+Derivation and code generation need SymPy; they are imported only on a
+cache miss.  On a hit, ``prepare`` reads the file, hashes it and loads the
+stored code and robot info: no YAML validation, no SymPy.
 """
 from __future__ import annotations
 
+import hashlib
 import time
+from pathlib import Path
 
+from . import cache
 from .compiled import CompiledRobot
-from .model.robot import Robot
+from .robotinfo import RobotInfo
 
 
-def compile_robot(robot: Robot, formulation: str = "kane",
-                  timings: dict | None = None) -> CompiledRobot:
+def compile_robot(robot, formulation: str = "kane", timings: dict | None = None,
+                  use_cache: bool = True) -> CompiledRobot:
     """The numeric functions of ``robot``'s equations by ``formulation``."""
+    timings = {} if timings is None else timings
+    if use_cache:
+        entry = cache.load(robot.digest, formulation)
+        if entry is not None:
+            timings["cache"] = "hit"
+            return CompiledRobot(entry["code"])
+        timings["cache"] = "miss"
     from . import numeric
     from .formulations import derive
 
-    timings = {} if timings is None else timings
     start = time.perf_counter()
     eom = derive(robot, formulation)
     timings["derive"] = time.perf_counter() - start
     start = time.perf_counter()
-    compiled = CompiledRobot(numeric.source(robot, eom))
+    code = numeric.source(robot, eom)
+    compiled = CompiledRobot(code)
     timings["compile"] = time.perf_counter() - start
+    if use_cache:
+        cache.store(robot.digest, formulation,
+                    {"code": code, "robot": RobotInfo.from_robot(robot).to_dict()})
     return compiled
+
+
+def prepare(path: str | Path, formulation: str = "kane", use_cache: bool = True,
+            timings: dict | None = None) -> tuple[RobotInfo, CompiledRobot]:
+    """Robot info and compiled functions for the file at ``path``."""
+    from .model.yamlsource import read_text
+
+    timings = {} if timings is None else timings
+    text, source = read_text(path)
+    if use_cache:
+        digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
+        entry = cache.load(digest, formulation)
+        if entry is not None:
+            timings["cache"] = "hit"
+            return RobotInfo.from_dict(entry["robot"], source), CompiledRobot(entry["code"])
+    from .model import robot_from_text
+
+    start = time.perf_counter()
+    robot = robot_from_text(text, source)
+    timings["load"] = time.perf_counter() - start
+    compiled = compile_robot(robot, formulation, timings, use_cache)
+    return RobotInfo.from_robot(robot), compiled

@@ -18,14 +18,14 @@ from . import integrators, output
 from .build import compile_robot
 from .compiled import CompiledRobot
 from .errors import ModelError, NumericalError
-from .model.robot import Robot, Simulation
+from .robotinfo import RobotInfo, Simulation
 
 DEFAULTS = Simulation(t_end=10.0, output_step=0.01, method="auto", rtol=1e-10, atol=1e-12)
 
 
 @dataclass
 class SimulationResult:
-    robot: Robot
+    robot: RobotInfo
     settings: Simulation
     solution: integrators.Solution
     efforts: np.ndarray                   # m x rows
@@ -40,7 +40,7 @@ class SimulationResult:
         return self.solution.x
 
 
-def resolve(robot: Robot, **overrides) -> Simulation:
+def resolve(robot: RobotInfo, **overrides) -> Simulation:
     """Settings: command line, then the robot file, then anadyn's defaults."""
     chosen = {k: v for k, v in overrides.items() if v is not None}
     settings = replace(DEFAULTS, **{k: v for k, v in robot.simulation.__dict__.items()
@@ -65,18 +65,23 @@ def output_grid(t_end: float, step: float) -> np.ndarray:
     return np.arange(count) * step
 
 
-def initial_state(robot: Robot) -> np.ndarray:
+def initial_state(robot: RobotInfo) -> np.ndarray:
     return np.array([float(c.initial) for c in robot.coordinates]
                     + [float(c.rate) for c in robot.coordinates])
 
 
-def simulate(robot: Robot, formulation: str = "kane", compiled: CompiledRobot | None = None,
-             **overrides) -> SimulationResult:
-    """Integrate ``robot``; a failure is returned in ``result.solution``."""
-    settings = resolve(robot, **overrides)
-    timings: dict = {}
+def simulate(robot, formulation: str = "kane", compiled: CompiledRobot | None = None,
+             timings: dict | None = None, **overrides) -> SimulationResult:
+    """Integrate ``robot`` (a Robot, or a RobotInfo with ``compiled``).
+
+    A failure is returned in ``result.solution``, not raised.
+    """
+    timings = {} if timings is None else timings
     if compiled is None:
         compiled = compile_robot(robot, formulation, timings)
+    if not isinstance(robot, RobotInfo):
+        robot = RobotInfo.from_robot(robot)
+    settings = resolve(robot, **overrides)
     grid = output_grid(settings.t_end, settings.output_step)
     solution = integrators.integrate(compiled, initial_state(robot), grid, settings.method,
                                      settings.rtol, settings.atol)
@@ -109,11 +114,27 @@ def write(result: SimulationResult, out: Path, plot: bool = True) -> list[Path]:
     output.write_csv(written[0], header, data)
     if plot:
         written.append(out / "simulate.png")
-        output.write_plot(written[1], result.t, _panels(result),
+        output.write_plot(written[-1], result.t, _panels(result),
                           f"{result.robot.name}: direct dynamics ({result.solution.method})")
     (out / "simulate.partial.csv").unlink(missing_ok=True)
     result.timings["write"] = time.perf_counter() - start
+    written.append(out / "simulate.json")
+    output.write_json(written[-1], summary(result))
     return written
+
+
+def summary(result: SimulationResult) -> dict:
+    """Key figures of a run (``simulate.json``)."""
+    solution = result.solution
+    final = dict(zip(columns(result)[0][1:], (float(v) for v in
+                                              np.concatenate([solution.x[-1],
+                                                              result.efforts[:, -1]]))))
+    return {"robot": result.robot.name, "method": solution.method, "reason": solution.reason,
+            "success": solution.success, "rhs_calls": solution.rhs_calls,
+            "jacobian_calls": solution.jacobian_calls, "steps": solution.steps,
+            "rtol": result.settings.rtol, "atol": result.settings.atol,
+            "t_end": float(result.t[-1]), "rows": len(result.t), "final": final,
+            "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)}}
 
 
 def _panels(result: SimulationResult):

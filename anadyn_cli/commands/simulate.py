@@ -24,18 +24,21 @@ def simulate(
                                                 "else 0.01]."),
     out: Path = OutOpt,
     plot: bool = typer.Option(True, help="Write simulate.png."),
+    cache: bool = typer.Option(True, help="Reuse derived equations from the cache."),
 ) -> None:
     """Direct dynamics under the robot's feedback laws: simulate.csv and simulate.png."""
     import time
 
     from .. import simulate as service
-    from ..model import load_robot
+    from ..build import prepare
 
     start = time.perf_counter()
-    model = load_robot(robot)
-    result = service.simulate(model, formulation.value, method=method, rtol=rtol, atol=atol,
-                              t_end=t_end, output_step=dt)
-    written = service.write(result, out_dir(out, model.name), plot=plot)
+    timings: dict = {}
+    info, compiled = prepare(robot, formulation.value, use_cache=cache, timings=timings)
+    result = service.simulate(info, formulation.value, compiled=compiled, timings=timings,
+                              method=method, rtol=rtol, atol=atol, t_end=t_end,
+                              output_step=dt)
+    written = service.write(result, out_dir(out, info.name), plot=plot)
     solution = result.solution
     typer.echo(service.table(result))
     if solution.reason:
@@ -45,6 +48,7 @@ def simulate(
     typer.echo(f"rhs calls {solution.rhs_calls}, jacobian calls {solution.jacobian_calls}, "
                f"steps {solution.steps}, rtol {result.settings.rtol:g}, "
                f"atol {result.settings.atol:g}")
-    split = ", ".join(f"{k} {v:.3f} s" for k, v in result.timings.items())
+    split = ", ".join(f"{k} {v:.3f} s" if isinstance(v, float) else f"{k} {v}"
+                      for k, v in result.timings.items())
     typer.echo(f"time: {split}; total {time.perf_counter() - start:.3f} s")
     typer.echo("wrote " + ", ".join(str(p) for p in written))

@@ -12,6 +12,8 @@ from typing import Mapping
 
 import sympy as sp
 
+from ..robotinfo import Simulation
+
 Vector = tuple[sp.Expr, sp.Expr, sp.Expr]
 JOINT_TYPES = ("revolute", "prismatic", "fixed")
 GROUND = "ground"
@@ -94,15 +96,6 @@ class Trajectory:
     start: Mapping[str, sp.Expr]
     end: Mapping[str, sp.Expr]
     expressions: Mapping[str, sp.Expr]
-
-
-@dataclass(frozen=True)
-class Simulation:
-    t_end: float | None = None
-    output_step: float | None = None
-    method: str | None = None
-    rtol: float | None = None
-    atol: float | None = None
 
 
 @dataclass(frozen=True)
