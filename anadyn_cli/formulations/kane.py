@@ -43,7 +43,7 @@ def equations(robot: Robot, kin: Kinematics) -> EquationsOfMotion:
         else:
             w_p, al_p, ao_p = omega[b.parent], alpha[b.parent], acc_origin[b.parent]
         rate = (b.joint_rates * dq_vec)[0]                       # theta-dot or d-dot
-        rate2 = (dq_vec.T * sp.hessian(b.displacement, q) * dq_vec)[0] if n else 0
+        rate2 = (dq_vec.T * sp.hessian(b.displacement, q) * dq_vec)[0]
         w = Matrix(b.W * dq_vec)
         w_p_here = Matrix(Rt * w_p)                              # parent's w, body axes
         # velocity-product accelerations, body axes
