@@ -15,7 +15,7 @@ import typer
 from .errors import AnadynError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
-                  pretty_exceptions_enable=False,
+                  pretty_exceptions_enable=False, rich_markup_mode=None,
                   help="Analytical dynamics of robot arms: Kane's method and Lagrange's "
                        "equations from a YAML robot description.")
 

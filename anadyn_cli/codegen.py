@@ -18,10 +18,14 @@ from sympy.printing.pycode import PythonCodePrinter
 
 @dataclass(frozen=True)
 class Function:
-    """One generated function: ``name(*args)`` returns ``outputs`` (matrices)."""
+    """One generated function: ``name(*args)`` returns ``outputs`` in order.
+
+    An output given as a list of expressions is a vector (shape (k,)); one
+    given as a Matrix keeps both dimensions, even with a single column.
+    """
     name: str
     args: tuple[sp.Symbol, ...]
-    outputs: tuple[tuple[str, sp.Matrix], ...]   # (name, matrix) in return order
+    outputs: tuple[tuple[str, sp.Matrix | list], ...]
     vectorized: bool
     doc: str
 
@@ -48,11 +52,12 @@ def _function_source(f: Function) -> list[str]:
         body.append(f"    {symbol} = {printer.doprint(expr)}")
     position = 0
     returned = []
-    for out_name, matrix in f.outputs:
+    for out_name, value in f.outputs:
+        vector = not isinstance(value, sp.MatrixBase)
+        matrix = sp.Matrix(value)
         rows, cols = matrix.shape
-        shape = f"_shape + ({rows}, {cols})" if f.vectorized else f"({rows}, {cols})"
-        if cols == 1:
-            shape = f"_shape + ({rows},)" if f.vectorized else f"({rows},)"
+        dims = f"{rows}," if vector else f"{rows}, {cols}"
+        shape = f"_shape + ({dims})" if f.vectorized else f"({dims})"
         body.append(f"    {out_name} = numpy.zeros({shape})")
         for i in range(rows):
             for j in range(cols):
@@ -60,7 +65,7 @@ def _function_source(f: Function) -> list[str]:
                 position += 1
                 if expr != 0:
                     index = f"..., {i}" if f.vectorized else f"{i}"
-                    index += f", {j}" if cols > 1 else ""
+                    index += "" if vector else f", {j}"
                     body.append(f"    {out_name}[{index}] = {printer.doprint(expr)}")
         returned.append(out_name)
     body.append(f"    return {', '.join(returned)}")

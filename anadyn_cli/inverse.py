@@ -1,0 +1,516 @@
+"""Inverse dynamics: the actuator efforts that produce a prescribed motion.
+
+Given q(t) from the robot file's ``trajectory`` (exact rates and
+accelerations, see ``trajectory``), the equations M(q) ddq = F(q, dq) + B(q) tau
+give, with B square and non-singular,
+
+    tau(t) = B^-1 (M ddq - F)        at (q(t), dq(t), ddq(t))
+
+evaluated over the whole time grid at once (``CompiledRobot.mfb`` on arrays,
+one batched solve; no Python loop per point).
+
+Round trip: the direct dynamics x' = [dq, M^-1 (F + B tau(t))], driven by the
+efforts as exact functions of time (recomputed from the trajectory at the
+integrator's t, never interpolated), integrated from the trajectory's start
+state, must follow the prescribed q(t); the largest deviation on the output
+grid is reported and checked against a tolerance.  An arm held against
+gravity is usually unstable in open loop (the chapter's arms: deviations grow
+like exp(3..5 t/s), some 1e24-fold over their 15 s), so such a motion is
+integrated in segments short enough for double precision, each restarted
+from the prescribed state (see ``round_trip``).
+"""
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import output
+from .compiled import CompiledRobot
+from .errors import CheckFailed, ModelError, NumericalError
+from .robotinfo import RobotInfo
+
+DEFAULT_STEP = 0.01          # s, output grid (else the file's simulation.output_step)
+DEFAULT_TOLERANCE = 1e-6     # rad or m, largest round-trip tracking error
+ROUNDTRIP_RTOL = 1e-11
+ROUNDTRIP_ATOL = 1e-12
+AMPLIFICATION = 1e3          # largest exp(growth rate * segment) of a round-trip segment
+MAX_POINTS = 10**7           # rows of the output grid
+GROWTH_SAMPLES = 31          # points along the motion where the growth rate is estimated
+SINGULAR = 1e-10             # |det B| / prod |columns of B| below this: B singular
+
+
+class InverseDynamics:
+    """tau(t) = B^-1 (M ddq - F) along a prescribed motion.
+
+    ``motion(t) -> q, dq, ddq`` (arrays of shape t.shape + (n,)) and the
+    robot's compiled ``mfb``; both take arrays of any shape or scalars.
+    """
+
+    def __init__(self, compiled: CompiledRobot, motion):
+        self.compiled = compiled
+        self.motion = motion
+        self.n = compiled.n
+        self.m = len(compiled.effort_names)
+
+    def matrices(self, q, dq):
+        """M (..., n, n), F (..., n), B (..., n, m) at states with the coordinates last."""
+        return self.compiled.mfb(np.moveaxis(q, -1, 0), np.moveaxis(dq, -1, 0))
+
+    def efforts(self, t):
+        """(q, dq, ddq, tau) over the time array ``t``; tau has shape t.shape + (m,)."""
+        q, dq, ddq = self.motion(t)
+        M, F, B = self.matrices(q, dq)
+        return q, dq, ddq, self.solve(M, F, B, ddq)
+
+    @staticmethod
+    def solve(M, F, B, ddq):
+        """tau = B^-1 (M ddq - F) at every point (B square); one LU when B is constant."""
+        demand = np.einsum("...ij,...j->...i", M, ddq) - F          # = B tau
+        if B.ndim > 2 and len(B) and (B == B[:1]).all():
+            return np.linalg.solve(B[0], demand.T).T
+        return np.linalg.solve(B, demand[..., None])[..., 0]
+
+    def effort_at(self, t: float) -> np.ndarray:
+        """tau at one time (the round trip's exact forcing)."""
+        q, dq, ddq = self.motion(t)
+        M, F, B = self.matrices(q, dq)
+        return np.linalg.solve(B, M @ ddq - F)
+
+
+@dataclass
+class RoundTrip:
+    """Direct dynamics driven by the computed efforts, against the prescribed q(t)."""
+    method: str
+    rtol: float
+    atol: float
+    tolerance: float
+    max_error: float              # max |q - q_prescribed| over the grid and coordinates
+    coordinate: str               # where it occurs
+    time: float
+    errors: dict                  # coordinate -> its largest error
+    final_error: float            # max over the coordinates at the end
+    rhs_calls: int
+    steps: int
+    wall: float
+    segments: int                 # integrated pieces, each from the prescribed state
+    segment: float                # their length, s
+    growth_rate: float            # largest open-loop growth rate along the motion, 1/s
+    growth_time: float            # where it occurs, s
+    growth: float                 # integral of the positive growth rate over the motion
+
+    @property
+    def passed(self) -> bool:
+        return self.max_error <= self.tolerance
+
+
+@dataclass
+class InverseResult:
+    robot: RobotInfo
+    formulation: str
+    kind: str                     # trajectory kind
+    duration: float
+    step: float
+    t: np.ndarray                 # (N,)
+    q: np.ndarray                 # (N, n)
+    dq: np.ndarray
+    ddq: np.ndarray
+    efforts: np.ndarray           # (N, m)
+    dynamics: InverseDynamics
+    roundtrip: RoundTrip | None = None
+    timings: dict = field(default_factory=dict)
+
+
+def inverse(robot, formulation: str = "kane", step: float | None = None,
+            roundtrip: bool = True, tolerance: float = DEFAULT_TOLERANCE,
+            segment: float | None = None,
+            compiled: CompiledRobot | None = None, timings: dict | None = None,
+            use_cache: bool = True) -> InverseResult:
+    """Efforts along ``robot``'s trajectory (a validated ``Robot``), and the round trip."""
+    from . import trajectory
+    from .build import compile_robot
+
+    timings = {} if timings is None else timings
+    if robot.trajectory is None:
+        raise trajectory.missing(robot)
+    step = _positive("--dt", step if step is not None
+                     else robot.simulation.output_step or DEFAULT_STEP)
+    tolerance = _positive("--roundtrip-tol", tolerance)
+    if segment is not None:
+        _positive("--roundtrip-segment", segment)
+    if compiled is None:
+        compiled = compile_robot(robot, formulation, timings, use_cache)
+    info = RobotInfo.from_robot(robot)
+    _check_counts(info)
+    start = time.perf_counter()
+    motion = trajectory.motion(robot)
+    timings["trajectory"] = time.perf_counter() - start
+    if step > motion.duration:
+        raise ModelError(f"--dt {step:g} s is longer than the trajectory's duration "
+                         f"{motion.duration:g} s")
+    dynamics = InverseDynamics(compiled, motion)
+    if motion.duration / step > MAX_POINTS:
+        raise ModelError(f"--dt {step:g} s gives more than {MAX_POINTS:.0e} points over "
+                         f"{motion.duration:g} s")
+    t = trajectory.grid(motion.duration, step)
+    start = time.perf_counter()
+    with np.errstate(all="ignore"):
+        q, dq, ddq = motion(t)
+        M, F, B = dynamics.matrices(q, dq)
+    elapsed = time.perf_counter() - start
+    for name, values in (("q", q), ("dq", dq), ("ddq", ddq)):
+        bad = ~np.isfinite(values)
+        if bad.any():
+            k, i = np.argwhere(bad)[0]
+            raise ModelError(f"the prescribed {name} of {info.coordinates[i].name} "
+                             f"is not finite at t = {t[k]:g} s", source=info.source,
+                             path="trajectory")
+    B = np.broadcast_to(B, (len(t), dynamics.n, dynamics.m))
+    _check_actuation(info, t, B)
+    start = time.perf_counter()
+    with np.errstate(all="ignore"):
+        tau = dynamics.solve(M, F, B, ddq)
+    timings["efforts"] = elapsed + time.perf_counter() - start
+    _finite(info, t, tau, "the efforts")
+    result = InverseResult(info, formulation, motion.kind, motion.duration, step, t,
+                           q, dq, ddq, tau, dynamics, timings=timings)
+    if roundtrip:
+        result.roundtrip = round_trip(result, tolerance, segment)
+        timings["roundtrip"] = result.roundtrip.wall
+    return result
+
+
+def growth_rates(dynamics: InverseDynamics, times: np.ndarray) -> np.ndarray:
+    """Largest real part of the eigenvalues of d(x')/dx at each of ``times``, the efforts
+    held at tau(t): how fast the open-loop motion departs from the trajectory, 1/s.
+
+    A step-length estimate for the round trip only; the Jacobian is taken by central
+    differences of x' = [dq, M^-1 (F + B tau)] at the prescribed states.
+    """
+    n, mfb = dynamics.n, dynamics.matrices
+    rates = np.empty(len(times))
+    for i, moment in enumerate(times):
+        q, dq, _ = dynamics.motion(float(moment))
+        x, tau = np.concatenate([q, dq]), dynamics.effort_at(float(moment))
+        J = np.zeros((2 * n, 2 * n))
+        J[:n, n:] = np.eye(n)
+        for k in range(2 * n):
+            h = 1e-6 * max(1.0, abs(x[k]))
+            shifted = [x.copy(), x.copy()]
+            shifted[0][k] += h
+            shifted[1][k] -= h
+            (Ma, Fa, Ba), (Mb, Fb, Bb) = (mfb(y[:n], y[n:]) for y in shifted)
+            J[n:, k] = (np.linalg.solve(Ma, Fa + Ba @ tau)
+                        - np.linalg.solve(Mb, Fb + Bb @ tau)) / (2 * h)
+        rates[i] = np.linalg.eigvals(J).real.max()
+    return rates
+
+
+def segment_rows(t: np.ndarray, count: int) -> np.ndarray:
+    """Rows of ``t`` nearest to k T / count, k = 0..count (first and last row included)."""
+    targets = np.linspace(t[0], t[-1], count + 1)
+    right = np.clip(np.searchsorted(t, targets), 1, len(t) - 1)
+    left = right - 1
+    rows = np.where(targets - t[left] <= t[right] - targets, left, right)
+    return np.unique(np.concatenate([[0], rows, [len(t) - 1]]))
+
+
+def round_trip(result: InverseResult, tolerance: float = DEFAULT_TOLERANCE,
+               segment: float | None = None, rtol: float = ROUNDTRIP_RTOL,
+               atol: float = ROUNDTRIP_ATOL) -> RoundTrip:
+    """Integrate x' = [dq, M^-1 (F + B tau(t))] (LSODA) and compare q with the trajectory.
+
+    The open-loop motion of an arm held against gravity is often unstable: a
+    deviation grows like exp(lambda t), lambda the growth rate above, and over
+    the whole motion no double-precision integration can follow it.  So the
+    run is split into segments over which exp(lambda h) <= AMPLIFICATION, each
+    started from the prescribed state at its first row (the first from the
+    trajectory's start); a stable motion is one segment from the start state.
+    ``segment`` (s) overrides the automatic length.
+    """
+    from scipy.integrate import odeint
+
+    dynamics, n, t = result.dynamics, result.dynamics.n, result.t
+    mfb, effort_at = dynamics.matrices, dynamics.effort_at
+    start = time.perf_counter()
+    samples = np.linspace(t[0], t[-1], GROWTH_SAMPLES)
+    with np.errstate(all="ignore"):
+        rates = growth_rates(dynamics, samples)
+    if not np.isfinite(rates).all():
+        raise NumericalError(f"{result.robot.source}: round trip: the direct dynamics cannot "
+                             f"be evaluated at t = {samples[~np.isfinite(rates)][0]:g} s "
+                             "(singular mass matrix?)")
+    rate, rate_time = float(rates.max()), float(samples[rates.argmax()])
+    positive = np.maximum(rates, 0.0)
+    growth = float(np.sum((positive[1:] + positive[:-1]) / 2 * np.diff(samples)))
+    if segment is None:
+        count = max(1, math.ceil(rate * (t[-1] - t[0]) / math.log(AMPLIFICATION) - 1e-9))
+    else:
+        count = max(1, math.ceil((t[-1] - t[0]) / _positive("--roundtrip-segment", segment)
+                                 - 1e-9))
+    rows = segment_rows(t, count)
+    calls = [0]
+    failure: list = []
+
+    def rhs(x, moment):
+        calls[0] += 1
+        out = np.empty(2 * n)
+        out[:n] = x[n:]
+        try:
+            M, F, B = mfb(x[:n], x[n:])
+            out[n:] = np.linalg.solve(M, F + B @ effort_at(moment))
+        except np.linalg.LinAlgError:
+            out[:] = np.nan
+        if not np.isfinite(out).all() and not failure:
+            failure.append(moment)
+        return out
+
+    error = np.zeros_like(result.q)
+    steps = 0
+    for first, last in zip(rows[:-1], rows[1:]):
+        x0 = np.concatenate([result.q[first], result.dq[first]])
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            x, info = odeint(rhs, x0, t[first:last + 1], rtol=rtol, atol=atol,
+                             full_output=True, mxstep=10**6, tcrit=[t[last]])
+        if not (info["message"].startswith("Integration successful") and np.isfinite(x).all()):
+            where = (f"at t = {failure[0]:.6g} s" if failure
+                     else f"after t = {float(np.max(info['tcur'], initial=t[first])):.6g} s")
+            raise NumericalError(f"{result.robot.source}: round trip: the direct dynamics "
+                                 f"failed {where} ({info['message'].strip()})")
+        error[first:last + 1] = np.maximum(error[first:last + 1],
+                                           np.abs(x[:, :n] - result.q[first:last + 1]))
+        steps += int(info["nst"][-1]) if len(info["nst"]) else 0
+    wall = time.perf_counter() - start
+    row, column = np.unravel_index(int(np.argmax(error)), error.shape)
+    names = [c.name for c in result.robot.coordinates]
+    return RoundTrip("odeint (LSODA)", rtol, atol, tolerance, float(error[row, column]),
+                     names[column], float(t[row]),
+                     {name: float(e) for name, e in zip(names, error.max(axis=0))},
+                     float(error[-1].max()), calls[0], steps, wall, len(rows) - 1,
+                     float((t[-1] - t[0]) / (len(rows) - 1)), rate, rate_time, growth)
+
+
+def check(result: InverseResult) -> None:
+    """CheckFailed when the round trip missed its tolerance."""
+    trip = result.roundtrip
+    if trip is None or trip.passed:
+        return
+    unit = next(c.unit for c in result.robot.coordinates if c.name == trip.coordinate)
+    raise CheckFailed(f"{result.robot.source}: round trip: largest tracking error "
+                      f"{trip.max_error:.3g} {unit} ({trip.coordinate} at t = {trip.time:g} s) "
+                      f"exceeds the tolerance {trip.tolerance:g} (--roundtrip-tol)")
+
+
+# -- checks ------------------------------------------------------------------------
+def _positive(option: str, value: float) -> float:
+    value = float(value)
+    if not (math.isfinite(value) and value > 0):
+        raise ModelError(f"{option} must be a positive number, got {value:g}")
+    return value
+
+
+NEEDS = "inverse dynamics needs one independent actuator per coordinate (B square and non-singular)"
+
+
+def _check_counts(info: RobotInfo) -> None:
+    if not info.actuators:
+        names = [c.name for c in info.coordinates]
+        raise ModelError(f"{len(names)} coordinate{'s' * (len(names) != 1)}, no actuators: "
+                         f"{NEEDS}; "
+                         f"not actuated: {', '.join(names)}", source=info.source,
+                         path="actuators")
+
+
+def _check_actuation(info: RobotInfo, t: np.ndarray, B: np.ndarray) -> None:
+    """B (N, n, m) must be square and non-singular at every point; say what is not actuated."""
+    n, m = B.shape[1:]
+    names = [c.name for c in info.coordinates]
+    counts = f"{n} coordinate{'s' * (n != 1)}, {m} actuator{'s' * (m != 1)}"
+    if m != n:
+        lost = _not_actuated(B[0], names)
+        if lost:
+            raise ModelError(f"{counts}: {NEEDS}; not actuated: {lost}",
+                             source=info.source, path="actuators")
+        idle = _describe(_null_space(B[0]), [a.name for a in info.actuators])
+        raise ModelError(f"{counts}: {NEEDS}; the efforts are not unique (efforts {idle} "
+                         "produce no generalized force)", source=info.source, path="actuators")
+    if len(B) and (B == B[:1]).all():
+        bad = 0 if _singular(B[:1])[0] else None
+    else:
+        flags = np.flatnonzero(_singular(B))
+        bad = int(flags[0]) if len(flags) else None
+    if bad is not None:
+        raise ModelError(f"{counts}, but B is singular at t = {t[bad]:g} s: {NEEDS}; "
+                         f"not actuated: {_not_actuated(B[bad], names)}",
+                         source=info.source, path="actuators")
+
+
+def _singular(B: np.ndarray) -> np.ndarray:
+    """Per point: |det B| small against the product of its column lengths (Hadamard)."""
+    with np.errstate(all="ignore"):
+        scale = np.prod(np.linalg.norm(B, axis=-2), axis=-1)
+        ratio = np.abs(np.linalg.det(B)) / scale
+    return ~(ratio > SINGULAR)
+
+
+def _null_space(A: np.ndarray) -> np.ndarray:
+    """Orthonormal basis (columns) of {v : A v = 0}."""
+    _, s, vt = np.linalg.svd(A)
+    tol = max(A.shape) * np.finfo(float).eps * 1e3 * (s[0] if len(s) else 0.0)
+    rank = int((s > tol).sum())
+    return vt[rank:].T
+
+
+def _not_actuated(B: np.ndarray, names: list[str]) -> str:
+    """Coordinates (or combinations) along which B^T v = 0: no effort reaches them."""
+    basis = _null_space(B.T)
+    if basis.shape[1] == 0:
+        return ""
+    size = np.abs(B).max(axis=1, initial=0.0)
+    zero = [i for i in range(len(names)) if size[i] <= 1e-12 * max(size.max(), 1.0)]
+    words = [names[i] for i in zero]
+    if len(zero) < basis.shape[1]:
+        rest = basis.copy()
+        rest[zero] = 0
+        u, s, _ = np.linalg.svd(rest, full_matrices=False)
+        rest = u[:, s > 1e-9][:, : basis.shape[1] - len(zero)]
+        words.append("the combined motion " + _describe(rest, ["d" + n for n in names]))
+    return ", ".join(words)
+
+
+def _describe(basis: np.ndarray, names: list[str]) -> str:
+    """Columns of ``basis`` as ratios of ``names``, e.g. 'q1:q2 = 1:1'."""
+    out = []
+    for v in basis.T:
+        v = v / v[np.argmax(np.abs(v))]
+        used = [(name, c) for name, c in zip(names, v) if abs(c) > 1e-9]
+        out.append(":".join(name for name, _ in used) + " = "
+                   + ":".join(f"{c:.4g}" for _, c in used))
+    return ", ".join(out)
+
+
+def _finite(info: RobotInfo, t, values, what: str) -> None:
+    bad = ~np.isfinite(values).all(axis=-1)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise NumericalError(f"{info.source}: {what} are not finite at t = {t[k]:g} s")
+
+
+# -- output --------------------------------------------------------------------------
+def unit_label(unit: str) -> str:
+    return unit.replace("*", "·")
+
+
+def columns(result: InverseResult) -> tuple[list[str], list[np.ndarray]]:
+    """CSV contract: t, coordinates, rates d<name>, accelerations dd<name>, efforts."""
+    names = [c.name for c in result.robot.coordinates]
+    header = ["t", *names, *("d" + n for n in names), *("dd" + n for n in names),
+              *(a.name for a in result.robot.actuators)]
+    return header, [result.t, *result.q.T, *result.dq.T, *result.ddq.T, *result.efforts.T]
+
+
+def table_times(duration: float) -> np.ndarray:
+    """t = 0, 1, ..., T s like the chapter's figures (coarser steps for long motions)."""
+    every = max(1, math.ceil(duration / 30))
+    times = np.arange(0, math.floor(duration + 1e-9) + 1, every, dtype=float)
+    if duration - times[-1] > 1e-9:
+        times = np.append(times, duration)
+    return times
+
+
+def table(result: InverseResult) -> str:
+    """Efforts at t = 0, 1, ..., T s (computed at those exact times)."""
+    times = table_times(result.duration)
+    tau = result.dynamics.efforts(times)[3]
+    heads = ["t (s)"] + [f"{a.name} ({unit_label(a.unit)})" for a in result.robot.actuators]
+    width = max(12, *(len(h) for h in heads))
+    lines = ["  ".join(f"{h:>{width}}" for h in heads)]
+    for k, moment in enumerate(times):
+        lines.append("  ".join([f"{moment:>{width}g}"]
+                               + [f"{round(v, 6) + 0.0:>{width}.6f}" for v in tau[k]]))
+    return "\n".join(lines)
+
+
+def roundtrip_line(result: InverseResult) -> str:
+    """Two lines: how the round trip was integrated, and its verdict."""
+    trip = result.roundtrip
+    if trip is None:
+        return "round trip: skipped (--no-roundtrip)"
+    if trip.segments == 1:
+        how = (f"round trip: one run from the start state over {result.duration:g} s "
+               f"(open-loop growth rate up to {trip.growth_rate:.3g} 1/s)")
+    else:
+        how = (f"round trip: the open-loop motion is unstable (growth rate up to "
+               f"{trip.growth_rate:.3g} 1/s at t = {trip.growth_time:g} s, a deviation grows "
+               f"~1e{trip.growth / math.log(10):.0f}-fold over {result.duration:g} s), "
+               f"so it runs in {trip.segments} segments of "
+               f"{trip.segment:.3g} s, each from the prescribed state")
+    unit = next(c.unit for c in result.robot.coordinates if c.name == trip.coordinate)
+    verdict = "ok" if trip.passed else "FAILED"
+    return (f"{how}\nround trip: largest tracking error {trip.max_error:.3g} {unit} "
+            f"({trip.coordinate} at t = {trip.time:g} s), tolerance {trip.tolerance:g}: "
+            f"{verdict} [{trip.method}, rtol {trip.rtol:g}, {trip.rhs_calls} rhs calls, "
+            f"{trip.steps} steps, {trip.wall:.3f} s]")
+
+
+def write(result: InverseResult, out: Path, plot: bool = True) -> list[Path]:
+    """inverse.csv, inverse.png and inverse.json in ``out``."""
+    out = output.prepare_dir(out)
+    start = time.perf_counter()
+    header, data = columns(result)
+    written = [out / "inverse.csv"]
+    output.write_csv(written[0], header, data)
+    if plot:
+        written.append(out / "inverse.png")
+        output.write_plot(written[-1], result.t, _panels(result),
+                          f"{result.robot.name}: inverse dynamics, {result.kind} motion "
+                          f"({result.formulation})")
+    result.timings["write"] = time.perf_counter() - start
+    written.append(out / "inverse.json")
+    output.write_json(written[-1], summary(result))
+    return written
+
+
+def summary(result: InverseResult) -> dict:
+    """Key figures (``inverse.json``)."""
+    efforts = {}
+    for k, a in enumerate(result.robot.actuators):
+        values = result.efforts[:, k]
+        low, high = int(np.argmin(values)), int(np.argmax(values))
+        efforts[a.name] = {"unit": a.unit, "min": float(values[low]),
+                           "t_min": float(result.t[low]), "max": float(values[high]),
+                           "t_max": float(result.t[high]), "start": float(values[0]),
+                           "end": float(values[-1])}
+    trip = result.roundtrip
+    roundtrip = None if trip is None else {
+        "passed": trip.passed, "max_error": trip.max_error, "coordinate": trip.coordinate,
+        "t": trip.time, "errors": trip.errors, "final_error": trip.final_error,
+        "tolerance": trip.tolerance, "method": trip.method, "rtol": trip.rtol,
+        "atol": trip.atol, "rhs_calls": trip.rhs_calls, "steps": trip.steps,
+        "segments": trip.segments, "segment": trip.segment, "growth_rate": trip.growth_rate,
+        "growth_time": trip.growth_time, "growth_log10": trip.growth / math.log(10)}
+    return {"robot": result.robot.name, "formulation": result.formulation,
+            "trajectory": result.kind, "duration": result.duration, "dt": result.step,
+            "points": len(result.t),
+            "points_per_second": (len(result.t) / result.timings["efforts"]
+                                  if result.timings.get("efforts") else None),
+            "efforts": efforts, "roundtrip": roundtrip,
+            "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)}}
+
+
+def _panels(result: InverseResult):
+    panels = []
+    for unit, label in (("rad", "deg"), ("m", "m")):
+        series = [(c.name, np.degrees(result.q[:, i]) if unit == "rad" else result.q[:, i])
+                  for i, c in enumerate(result.robot.coordinates) if c.unit == unit]
+        if series:
+            panels.append((f"prescribed q ({label})", series))
+    for k, a in enumerate(result.robot.actuators):        # one panel per effort, as in
+        panels.append((f"{a.name} ({unit_label(a.unit)})",  # the chapter's figures
+                       [(a.name, result.efforts[:, k])]))
+    return panels

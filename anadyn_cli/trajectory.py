@@ -1,0 +1,113 @@
+"""Prescribed motion q(t) from a robot file's ``trajectory`` section.
+
+For every coordinate, on 0 <= t <= T (T = ``duration``), with q0 the start
+(``from``, else the coordinate's initial value) and qf the end (``to``, else
+q0: a coordinate left out holds still):
+
+    cycloidal   q0 + (qf - q0)/T * (t - T/(2 pi) sin(2 pi t/T))
+    quintic     q0 + (qf - q0) * (10 s^3 - 15 s^4 + 6 s^5),   s = t/T
+    expression  the file's expression of t (left out: the initial value)
+
+Both rest-to-rest kinds start and end with zero rate and zero acceleration.
+The rates and accelerations are SymPy's exact derivatives of these
+expressions (never finite differences), compiled into one vectorized NumPy
+function ``motion(t) -> q, dq, ddq`` (arrays of shape t.shape + (n,)).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+
+from .codegen import Function, module_source
+from .errors import ModelError
+from .model.robot import Robot
+
+T = sp.Symbol("t", real=True)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """q(t), dq(t), ddq(t) for the robot's coordinates, and the compiled function."""
+    kind: str
+    duration: float
+    names: tuple[str, ...]
+    q: tuple[sp.Expr, ...]
+    dq: tuple[sp.Expr, ...]
+    ddq: tuple[sp.Expr, ...]
+    source: str                   # generated Python source of ``motion``
+    function: object              # motion(t) -> (q, dq, ddq)
+
+    def __call__(self, t):
+        """q, dq, ddq at ``t`` (scalar or array): arrays of shape t.shape + (n,)."""
+        return self.function(t)
+
+
+def expressions(robot: Robot) -> list[sp.Expr]:
+    """q(t) for every coordinate of ``robot``, exact (SymPy, in the Symbol ``t``)."""
+    trajectory = robot.trajectory
+    if trajectory is None:
+        raise missing(robot)
+    duration = trajectory.duration
+    result = []
+    for c in robot.coordinates:
+        if trajectory.kind == "expression":
+            result.append(trajectory.expressions.get(c.name, c.initial))
+            continue
+        start = trajectory.start.get(c.name, c.initial)
+        end = trajectory.end.get(c.name, start)
+        if trajectory.kind == "cycloidal":
+            shape = (T - duration / (2 * sp.pi) * sp.sin(2 * sp.pi * T / duration)) / duration
+        elif trajectory.kind == "quintic":
+            s = T / duration
+            shape = 10 * s**3 - 15 * s**4 + 6 * s**5
+        else:                                    # the loader admits only the kinds above
+            raise ModelError(f"unknown trajectory kind {trajectory.kind!r}",
+                             source=robot.source, path="trajectory.kind")
+        result.append(start + (end - start) * shape)
+    return result
+
+
+def missing(robot: Robot) -> ModelError:
+    return ModelError("no trajectory section: inverse dynamics needs a prescribed motion "
+                      "(trajectory: kind cycloidal, quintic or expression)",
+                      source=robot.source)
+
+
+def motion(robot: Robot) -> Motion:
+    """The robot's prescribed motion with exact derivatives, compiled for NumPy."""
+    q = expressions(robot)
+    names = tuple(c.name for c in robot.coordinates)
+    for name, expr in zip(names, q):
+        stray = expr.free_symbols - {T}
+        if stray:
+            raise ModelError(f"{name}(t) may depend only on t, found "
+                             f"{', '.join(sorted(map(str, stray)))}",
+                             source=robot.source, path=f"trajectory.expressions.{name}")
+    dq = [sp.diff(e, T) for e in q]
+    ddq = [sp.diff(e, T) for e in dq]
+    for name, expr in zip(names, ddq):
+        if expr.has(sp.DiracDelta, sp.Derivative, sp.Subs):
+            raise ModelError(f"{name}(t) is not twice differentiable (its rate jumps); "
+                             "inverse dynamics needs a finite acceleration",
+                             source=robot.source, path=f"trajectory.expressions.{name}")
+    function = Function("motion", (T,), (("q", q), ("dq", dq), ("ddq", ddq)), True,
+                        "Prescribed q(t), dq(t), ddq(t); arrays of shape t.shape + (n,).")
+    source = module_source([function], f"prescribed motion of {robot.name} "
+                                       f"({robot.trajectory.kind}), from {robot.source}")
+    namespace: dict[str, object] = {}
+    exec(compile(source, "<anadyn trajectory>", "exec"), namespace)   # noqa: S102
+    return Motion(robot.trajectory.kind, float(robot.trajectory.duration), names,
+                  tuple(q), tuple(dq), tuple(ddq), source, namespace["motion"])
+
+
+def grid(duration: float, step: float) -> np.ndarray:
+    """t = k * step for k = 0, 1, ... up to ``duration``, which is always the last row."""
+    count = int(np.floor(duration / step * (1 + 1e-12))) + 1
+    t = np.arange(count) * step
+    if abs(duration - t[-1]) <= 1e-9 * step:
+        t[-1] = duration
+    elif t[-1] < duration:
+        t = np.append(t, duration)
+    return t
