@@ -20,10 +20,10 @@ def compile_robot(robot, formulation: str = "kane", timings: dict | None = None,
     """The numeric functions of ``robot``'s equations by ``formulation``."""
     timings = {} if timings is None else timings
     if use_cache:
-        entry = cache.load(robot.digest, formulation)
-        if entry is not None:
+        hit = _cached(robot.digest, formulation, robot.source)
+        if hit is not None:
             timings["cache"] = "hit"
-            return CompiledRobot(entry["code"])
+            return hit[1]
         timings["cache"] = "miss"
     from . import numeric
     from .formulations import derive
@@ -50,10 +50,10 @@ def prepare(path: str | Path, formulation: str = "kane", use_cache: bool = True,
     text, source = read_text(path)
     if use_cache:
         digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
-        entry = cache.load(digest, formulation)
-        if entry is not None:
+        hit = _cached(digest, formulation, source)
+        if hit is not None:
             timings["cache"] = "hit"
-            return RobotInfo.from_dict(entry["robot"], source), CompiledRobot(entry["code"])
+            return hit
     from .model import robot_from_text
 
     start = time.perf_counter()
@@ -61,3 +61,14 @@ def prepare(path: str | Path, formulation: str = "kane", use_cache: bool = True,
     timings["load"] = time.perf_counter() - start
     compiled = compile_robot(robot, formulation, timings, use_cache)
     return RobotInfo.from_robot(robot), compiled
+
+
+def _cached(digest: str, formulation: str, source: str) -> tuple[RobotInfo, CompiledRobot] | None:
+    """The cache entry's robot info and functions; None on a miss or a damaged entry."""
+    entry = cache.load(digest, formulation)
+    if entry is None:
+        return None
+    try:
+        return RobotInfo.from_dict(entry["robot"], source), CompiledRobot(entry["code"])
+    except Exception:           # noqa: BLE001  anything wrong with a stored entry is a miss
+        return None

@@ -31,7 +31,9 @@ def expanded_terms(expr: sp.Expr, limit: int = TERM_BUDGET,
             for a in e.args:
                 value = min(value * size(a), limit + 1)
         elif e.is_Pow and e.exp.is_Integer and e.exp > 0:
-            value = min(size(e.base) ** int(e.exp), limit + 1)
+            base = size(e.base)
+            value = base if base <= 1 else (limit + 1 if e.exp > limit
+                                            else min(base ** int(e.exp), limit + 1))
         elif isinstance(e, (sp.sin, sp.cos)) and e.args[0].is_Add:
             value = min(2 ** (len(e.args[0].args) - 1), limit + 1)
         else:

@@ -32,7 +32,7 @@ class Function:
 
 def module_source(functions: list[Function], header: str) -> str:
     lines = [f"# {line}" for line in header.splitlines()]
-    lines += ["import math", "import numpy", ""]
+    lines += ["import functools", "import math", "import numpy", ""]
     for function in functions:
         lines += _function_source(function) + [""]
     return "\n".join(lines)
@@ -52,7 +52,8 @@ def _function_source(f: Function) -> list[str]:
         body.append(f"    {symbol} = {printer.doprint(expr)}")
     position = 0
     returned = []
-    for out_name, value in f.outputs:
+    for name, value in f.outputs:
+        out_name = f"_{name}"     # robot names start with a letter: no clash with an argument
         vector = not isinstance(value, sp.MatrixBase)
         matrix = sp.Matrix(value)
         rows, cols = matrix.shape

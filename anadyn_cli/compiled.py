@@ -76,22 +76,34 @@ class CompiledRobot:
             ddq = np.linalg.solve(M, G)
             M, K = self._jacobian(t, *values, *ddq.tolist())
             J[n:, :] = np.linalg.solve(M, K)
-        except (np.linalg.LinAlgError, OverflowError, ValueError, ZeroDivisionError):
-            J[n:, :] = np.nan        # rhs reports the failure
+        except (np.linalg.LinAlgError, OverflowError, ValueError, ZeroDivisionError) as err:
+            self._fail(t, x, "singular mass matrix" if isinstance(err, np.linalg.LinAlgError)
+                       else f"cannot evaluate the equations ({err})")
+            J[n:, :] = np.nan
+        if not np.isfinite(J).all():
+            self._fail(t, x, "non-finite Jacobian")
         return J
+
+    def finite_jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        """``jacobian`` with a failure (recorded) given as zeros, not NaN: solve_ivp's
+        LU factorization raises on NaN, while a NaN RHS stops the step as it should."""
+        return np.nan_to_num(self.jacobian(t, x), nan=0.0, posinf=0.0, neginf=0.0)
 
     def efforts(self, t, q, dq) -> np.ndarray:
         """Efforts under the control laws; q, dq of shape (n, ...) -> (m, ...)."""
-        tau = self._efforts(t, *q, *dq)
+        with np.errstate(all="ignore"):      # overflow or a domain error: NaN, reported
+            tau = self._efforts(t, *q, *dq)   # by the caller, never a stray warning line
         return np.moveaxis(tau, -1, 0)
 
     def mfb(self, q, dq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """M (..., n, n), F (..., n), B (..., n, m) over arrays of states."""
-        return self._mfb(*q, *dq)
+        with np.errstate(all="ignore"):
+            return self._mfb(*q, *dq)
 
     def energy(self, q, dq) -> tuple[np.ndarray, np.ndarray]:
         """(T, V) over arrays of states: T = 1/2 dq^T M dq, V of gravity."""
-        M, _, _ = self._mfb(*q, *dq)
-        rates = np.moveaxis(np.asarray(dq, dtype=float), 0, -1)
-        kinetic = 0.5 * np.einsum("...i,...ij,...j->...", rates, M, rates)
-        return kinetic, self._potential(*q)[..., 0]
+        with np.errstate(all="ignore"):
+            M, _, _ = self._mfb(*q, *dq)
+            rates = np.moveaxis(np.asarray(dq, dtype=float), 0, -1)
+            kinetic = 0.5 * np.einsum("...i,...ij,...j->...", rates, M, rates)
+            return kinetic, self._potential(*q)[..., 0]

@@ -42,6 +42,7 @@ class Solution:
     wall: float = 0.0             # seconds in the integrator
     reason: str = ""              # why auto chose the method
     notes: dict = field(default_factory=dict)
+    last: tuple[float, np.ndarray] | None = None   # last accepted step, when it failed
 
 
 @dataclass(frozen=True)
@@ -94,7 +95,10 @@ def integrate(robot: CompiledRobot, x0: np.ndarray, grid: np.ndarray, method: st
     start = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")          # failures are reported as data below
-        if method == "odeint":
+        if not np.isfinite(robot.rhs(grid[0], x0)).all():     # fails where it starts
+            solution = Solution(grid[:1], np.array(x0, dtype=float)[None, :], method, False,
+                                "the equations fail at the start")
+        elif method == "odeint":
             solution = _odeint(robot, x0, grid, rtol, atol)
         else:
             solution = _solve_ivp(robot, x0, grid, method, rtol, atol)
@@ -122,13 +126,14 @@ def _odeint(robot, x0, grid, rtol, atol) -> Solution:
 def _solve_ivp(robot, x0, grid, method, rtol, atol) -> Solution:
     from scipy.integrate import solve_ivp
 
-    jac = robot.jacobian if method in IMPLICIT else None
+    jac = robot.finite_jacobian if method in IMPLICIT else None
     sol = solve_ivp(robot.rhs, (grid[0], grid[-1]), x0, method=method, rtol=rtol, atol=atol,
                     jac=jac, dense_output=True)
     reached = grid[grid <= sol.t[-1]] if sol.status != 0 else grid
     x = sol.sol(reached).T if len(reached) > 1 else x0[None, :]
     x[0] = x0
-    return Solution(reached, x, method, sol.status == 0, sol.message, steps=len(sol.t) - 1)
+    return Solution(reached, x, method, sol.status == 0, sol.message, steps=len(sol.t) - 1,
+                    last=(float(sol.t[-1]), sol.y[:, -1].copy()))
 
 
 def _cut_at_failure(robot: CompiledRobot, solution: Solution) -> Solution:
@@ -142,10 +147,23 @@ def _cut_at_failure(robot: CompiledRobot, solution: Solution) -> Solution:
         t, x, why = robot.failure
         solution.message = f"{why} at t = {t:.6g} s, state {_state(x, robot)}"
     elif not solution.success:
-        last_t = solution.t[-1] if len(solution.t) else 0.0
-        solution.message = (f"integration failed after t = {last_t:.6g} s "
-                            f"({solution.method}: {solution.message.strip()})")
+        t, x = solution.last or (solution.t[-1], solution.x[-1])
+        solution.message = (f"integration failed ({solution.method}: "
+                            f"{solution.message.strip().rstrip('.')}{_conditioning(robot, x)}) "
+                            f"at t = {t:.6g} s, state {_state(x, robot)}")
     return solution
+
+
+def _conditioning(robot: CompiledRobot, x: np.ndarray) -> str:
+    """A note when the mass matrix at ``x`` is nearly singular (the usual cause)."""
+    n = robot.n
+    M = robot.mfb(x[:n, None], x[n:, None])[0][0]
+    d = np.sqrt(np.abs(np.diag(M)))
+    if not np.isfinite(M).all() or not d.all():
+        return "; the mass matrix is singular there"
+    condition = np.linalg.cond(M / np.outer(d, d))
+    return (f"; the mass matrix is nearly singular there, condition number {condition:.3g}"
+            if condition > 1e10 else "")
 
 
 def _state(x: np.ndarray, robot: CompiledRobot) -> str:

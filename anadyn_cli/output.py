@@ -18,6 +18,11 @@ import numpy as np
 from .errors import ModelError
 
 
+class WriteError(ModelError, OSError):
+    """A result file cannot be written: one line and exit 2 for the user, and
+    still an OSError for callers that skip what they cannot write (the cache)."""
+
+
 def prepare_dir(out: Path) -> Path:
     """Create the output folder, or say in one line why it cannot be used."""
     out = Path(out)
@@ -26,14 +31,24 @@ def prepare_dir(out: Path) -> Path:
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
-        raise ModelError(f"--out {out}: cannot create the folder ({err.strerror})") from None
+        raise ModelError(f"--out {out}: cannot create the folder ({err.strerror}); "
+                         "give a folder that can be created or written") from None
     if not os.access(out, os.W_OK | os.X_OK):
         raise ModelError(f"--out {out}: folder is not writable")
     return out
 
 
 def write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically; ModelError (one line) if the folder refuses."""
     path = Path(path)
+    try:
+        _write_atomically(path, data)
+    except OSError as err:
+        raise WriteError(f"cannot write {path}: {err.strerror or err}; earlier results there "
+                         "are left as they were") from None
+
+
+def _write_atomically(path: Path, data: bytes) -> None:
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(handle, "wb") as stream:

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+from .model.names import default_name
+
 
 @dataclass(frozen=True)
 class Simulation:
@@ -41,6 +43,7 @@ class RobotInfo:
     actuators: tuple[ActuatorInfo, ...]
     simulation: Simulation
     has_controller: bool
+    name_given: bool = True       # False: the name comes from the file name
 
     @classmethod
     def from_robot(cls, robot) -> "RobotInfo":
@@ -49,15 +52,19 @@ class RobotInfo:
             coordinates=tuple(CoordinateInfo(c.name, c.unit, float(c.initial), float(c.rate))
                               for c in robot.coordinates),
             actuators=tuple(ActuatorInfo(a.name, a.unit) for a in robot.actuators),
-            simulation=robot.simulation, has_controller=robot.controller is not None)
+            simulation=robot.simulation, has_controller=robot.controller is not None,
+            name_given=robot.name_given)
 
     def to_dict(self) -> dict:
         return asdict(self)
 
     @classmethod
     def from_dict(cls, data: dict, source: str) -> "RobotInfo":
-        return cls(name=data["name"], source=source, digest=data["digest"],
+        """The stored info for the same text read from ``source`` (which names
+        the robot when the file does not)."""
+        name = data["name"] if data["name_given"] else default_name(source)
+        return cls(name=name, source=source, digest=data["digest"],
                    coordinates=tuple(CoordinateInfo(**c) for c in data["coordinates"]),
                    actuators=tuple(ActuatorInfo(**a) for a in data["actuators"]),
                    simulation=Simulation(**data["simulation"]),
-                   has_controller=data["has_controller"])
+                   has_controller=data["has_controller"], name_given=data["name_given"])

@@ -21,6 +21,7 @@ from .errors import ModelError, NumericalError
 from .robotinfo import RobotInfo, Simulation
 
 DEFAULTS = Simulation(t_end=10.0, output_step=0.01, method="auto", rtol=1e-10, atol=1e-12)
+MAX_ROWS = 1_000_000     # output rows; the robot file is held to the same (model.loader)
 
 
 @dataclass
@@ -30,6 +31,7 @@ class SimulationResult:
     solution: integrators.Solution
     efforts: np.ndarray                   # m x rows
     timings: dict = field(default_factory=dict)
+    estimated_error: float | None = None  # accuracy.estimate_error, when asked for
 
     @property
     def t(self) -> np.ndarray:
@@ -56,6 +58,9 @@ def resolve(robot: RobotInfo, **overrides) -> Simulation:
     if settings.output_step > settings.t_end:
         raise ModelError(f"output step {settings.output_step:g} s is longer than "
                          f"t_end {settings.t_end:g} s")
+    if settings.t_end / settings.output_step > MAX_ROWS:
+        raise ModelError(f"t_end / output step = {settings.t_end / settings.output_step:.3g} "
+                         f"rows; at most {MAX_ROWS:,} (raise --dt or shorten --t-end)")
     return settings
 
 
@@ -134,7 +139,9 @@ def summary(result: SimulationResult) -> dict:
             "jacobian_calls": solution.jacobian_calls, "steps": solution.steps,
             "rtol": result.settings.rtol, "atol": result.settings.atol,
             "t_end": float(result.t[-1]), "rows": len(result.t), "final": final,
-            "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)}}
+            "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)},
+            **({} if result.estimated_error is None
+               else {"estimated_error": result.estimated_error})}
 
 
 def _panels(result: SimulationResult):

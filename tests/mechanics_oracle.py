@@ -73,6 +73,16 @@ def _vector3(data, names) -> list[float]:
     return [evaluate(v, names) for v in data]
 
 
+def _number(x: float) -> sp.Expr:
+    """Integral values exact (so that 1*x and 0*x stay out of the expressions)."""
+    return sp.Integer(int(x)) if float(x).is_integer() else sp.Float(x)
+
+
+def _in(frame, components) -> me.Vector:
+    x, y, z = (_number(c) for c in components)
+    return x * frame.x + y * frame.y + z * frame.z
+
+
 def oracle_equations(robot_yaml_text: str):
     """(q, dq, tau, M, F, B) of the robot: plain real Symbols named like the
     coordinates, ``d`` + coordinate, and the actuators; M, F, B sympy Matrices."""
@@ -83,8 +93,8 @@ def oracle_equations(robot_yaml_text: str):
 
     coordinate_names = list(data["coordinates"])
     t = me.dynamicsymbols._t
-    qs = [me.dynamicsymbols(name) for name in coordinate_names]
-    us = [me.dynamicsymbols("u_" + name) for name in coordinate_names]
+    qs = [me.dynamicsymbols(name, real=True) for name in coordinate_names]
+    us = [me.dynamicsymbols("u_" + name, real=True) for name in coordinate_names]
     by_name = dict(zip(coordinate_names, qs))
     actuator_items = list((data.get("actuators") or {}).items())
     taus = {name: sp.Symbol(name, real=True) for name, _ in actuator_items}
@@ -93,7 +103,7 @@ def oracle_equations(robot_yaml_text: str):
     O = me.Point("O")
     O.set_vel(N, 0)
     g = _vector3(data.get("gravity"), params)
-    gravity = g[0] * N.x + g[1] * N.y + g[2] * N.z
+    gravity = _in(N, g)
 
     # joints without a displacement take the coordinates in order, in file order
     default_coordinates = iter(qs)
@@ -178,10 +188,12 @@ def _build_body(item, built, N, O, params, displacement, rigid_bodies, loads, gr
     origin = _vector3(joint.get("origin"), params)
     roll, pitch, yaw = _vector3(joint.get("rpy"), params)
 
-    J = me.ReferenceFrame(f"J_{name}")
-    J.orient_body_fixed(P, (yaw, pitch, roll), "zyx")
-    joint_point = P_origin.locatenew(f"Oj_{name}",
-                                     origin[0] * P.x + origin[1] * P.y + origin[2] * P.z)
+    if roll == pitch == yaw == 0:
+        J = P                   # no turn: the joint axes are the parent's axes
+    else:
+        J = me.ReferenceFrame(f"J_{name}")
+        J.orient_body_fixed(P, tuple(map(_number, (yaw, pitch, roll))), "zyx")
+    joint_point = P_origin.locatenew(f"Oj_{name}", _in(P, origin))
     joint_point.v2pt_theory(P_origin, N, P)
 
     axis = None
@@ -189,33 +201,36 @@ def _build_body(item, built, N, O, params, displacement, rigid_bodies, loads, gr
         a = _vector3(joint["axis"], params)
         norm = math.sqrt(sum(c * c for c in a))
         a = [c / norm for c in a]
-        axis = a[0] * J.x + a[1] * J.y + a[2] * J.z
+        axis = _in(J, a)
 
     if kind == "revolute":
         B = me.ReferenceFrame(f"B_{name}")
         B.orient_axis(J, axis, displacement)
         body_origin = joint_point
-        axis = a[0] * B.x + a[1] * B.y + a[2] * B.z     # the same vector, in B axes
+        axis = _in(B, a)     # the same vector, in B axes
+        # the same angular velocity, but in B axes (as the inertia dyadic): far
+        # smaller expressions than orient_axis's J-axes form
+        B.set_ang_vel(J, displacement.diff(me.dynamicsymbols._t) * axis)
     elif kind == "prismatic":
-        B = J
+        B = J                   # may be the parent's frame itself (same axes)
         body_origin = joint_point.locatenew(f"Ob_{name}", displacement * axis)
         body_origin.set_vel(P, displacement.diff(me.dynamicsymbols._t) * axis)
         body_origin.v1pt_theory(joint_point, N, P)
     elif kind == "fixed":
-        B = J
+        B = J                   # may be the parent's frame itself (same axes)
         body_origin = joint_point
     else:
         raise ValueError(f"unknown joint type {kind!r}")
 
-    mass = evaluate(item["mass"], params)
+    mass = _number(evaluate(item["mass"], params))
     com = _vector3(item.get("com"), params)
-    G = body_origin.locatenew(f"G_{name}", com[0] * B.x + com[1] * B.y + com[2] * B.z)
+    G = body_origin.locatenew(f"G_{name}", _in(B, com))
     G.v2pt_theory(body_origin, N, B)
     entries = {k: 0.0 for k in ("ixx", "iyy", "izz", "ixy", "iyz", "ixz")}
     for key, value in (item.get("inertia") or {}).items():
         entries[key] = evaluate(value, params)
-    dyadic = me.inertia(B, entries["ixx"], entries["iyy"], entries["izz"],
-                        entries["ixy"], entries["iyz"], entries["ixz"])
+    e = {key: _number(value) for key, value in entries.items()}
+    dyadic = me.inertia(B, e["ixx"], e["iyy"], e["izz"], e["ixy"], e["iyz"], e["ixz"])
     rigid_bodies.append(me.RigidBody(f"body_{name}", G, B, mass, (dyadic, G)))
     loads.append((G, mass * gravity))
     return {"frame": B, "origin": body_origin, "joint_point": joint_point, "kind": kind,

@@ -57,9 +57,14 @@ def _rotation(rng: random.Random) -> np.ndarray:
         [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
-def _inertia(rng: random.Random, mass: float) -> str | None:
-    """An inertia mapping (central, body axes) or None for a point mass."""
-    style = rng.random()
+def _inertia(rng: random.Random, mass: float, degenerate: bool) -> str | None:
+    """An inertia mapping (central, body axes) or None for a point mass.
+
+    Point masses and slender rods (singular tensors) only if ``degenerate``:
+    they are kept off revolute joints, so that M(q) is positive definite
+    (the moving body nearest the root always has kinetic energy).
+    """
+    style = rng.random() if degenerate else 1.0
     if style < 0.08:
         return None                                   # point mass
     if style < 0.2:                                   # slender rod along x: exact, degenerate
@@ -184,7 +189,7 @@ def random_robot_yaml(seed: int) -> str:
         lines.append(f"    mass: {fmt(mass, 4)}")
         if rng.random() < 0.8:
             lines.append("    com: " + vec([rng.uniform(-0.3, 0.3) for _ in range(3)], 4))
-        inertia = _inertia(rng, round(mass, 3))
+        inertia = _inertia(rng, round(mass, 3), degenerate=kind != "revolute")
         if inertia is not None:
             lines.append(f"    inertia: {inertia}")
     lines.append("actuators:")

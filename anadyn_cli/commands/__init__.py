@@ -1,2 +1,2 @@
 """One module per command; importing this package registers them all on ``cli.app``."""
-from . import equations, simulate  # noqa: F401
+from . import accuracy, batch, check, compare, equations, inverse, simulate  # noqa: F401

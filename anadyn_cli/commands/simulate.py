@@ -25,6 +25,9 @@ def simulate(
     out: Path = OutOpt,
     plot: bool = typer.Option(True, help="Write simulate.png."),
     cache: bool = typer.Option(True, help="Reuse derived equations from the cache."),
+    estimate: bool = typer.Option(False, "--estimate-error",
+                                  help="Also estimate the run's global error by a re-solve "
+                                       "at rtol * 1e-3 (not below 1e-13)."),
 ) -> None:
     """Direct dynamics under the robot's feedback laws: simulate.csv and simulate.png."""
     import time
@@ -38,6 +41,11 @@ def simulate(
     result = service.simulate(info, formulation.value, compiled=compiled, timings=timings,
                               method=method, rtol=rtol, atol=atol, t_end=t_end,
                               output_step=dt)
+    if estimate and result.solution.success:
+        from ..accuracy import estimate_error
+        moment = time.perf_counter()
+        result.estimated_error = estimate_error(result, compiled)
+        result.timings["estimate"] = time.perf_counter() - moment
     written = service.write(result, out_dir(out, info.name), plot=plot)
     solution = result.solution
     typer.echo(service.table(result))
@@ -50,5 +58,7 @@ def simulate(
                f"atol {result.settings.atol:g}")
     split = ", ".join(f"{k} {v:.3f} s" if isinstance(v, float) else f"{k} {v}"
                       for k, v in result.timings.items())
-    typer.echo(f"time: {split}; total {time.perf_counter() - start:.3f} s")
+    typer.echo(f"time: {split}; total {time.perf_counter() - start:.3f} s"
+               + ("" if result.estimated_error is None
+                  else f"; estimated error {result.estimated_error:.2e}"))
     typer.echo("wrote " + ", ".join(str(p) for p in written))

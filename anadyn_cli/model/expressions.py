@@ -6,16 +6,22 @@ turned into a SymPy object node by node.  Nothing ever reaches ``eval``,
 ``sympify`` or ``parse_expr``.
 
 Allowed: numbers, the names the caller passes in, ``pi``, the operators
-``+ - * / **`` and calls of FUNCTIONS with positional arguments.
+``+ - * / **`` and calls of FUNCTIONS with positional arguments.  Exact
+numbers are kept below MAX_EXACT_BITS (larger ones are floating point, and
+overflow is an error), so that ``10**10**10`` or a tower of powers neither
+hangs nor eats memory.
 """
 from __future__ import annotations
 
 import ast
+import datetime
 import difflib
 import math
 from collections.abc import Mapping
 
 import sympy as sp
+
+from .names import CONSTANT_NAMES, FUNCTION_NAMES
 
 #: name -> (sympy function, allowed argument counts; None = two or more)
 FUNCTIONS: dict[str, tuple[object, tuple[int, ...] | None]] = {
@@ -27,10 +33,13 @@ FUNCTIONS: dict[str, tuple[object, tuple[int, ...] | None]] = {
     "min": (sp.Min, None), "max": (sp.Max, None),
 }
 CONSTANTS = {"pi": sp.pi}
-RESERVED = frozenset(FUNCTIONS) | frozenset(CONSTANTS)
+RESERVED = FUNCTION_NAMES | CONSTANT_NAMES     # the same names as FUNCTIONS and CONSTANTS
 
 MAX_LENGTH = 2000          # characters in one expression
 MAX_EXACT_EXPONENT = 64    # larger numeric powers are computed in floating point
+MAX_EXACT_BITS = 4096      # exact numbers beyond this are computed in floating point
+#: functions with a kink or a jump: not allowed where the expression is differentiated
+NOT_SMOOTH = frozenset({"abs", "sign", "min", "max"})
 
 _BINARY = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
 
@@ -45,16 +54,24 @@ def number(value: object) -> sp.Expr:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ExpressionError(f"expected a number, got {_describe(value)}")
     if isinstance(value, int):
+        if value.bit_length() > MAX_EXACT_BITS:
+            raise ExpressionError(f"number too large (more than {MAX_EXACT_BITS} bits), the "
+                                  "largest allowed is about 1.8e308")
         return sp.Integer(value)
     if not math.isfinite(value):
         raise ExpressionError(f"expected a finite number, got {value}")
     return sp.Rational(repr(value))
 
 
-def parse(value: object, names: Mapping[str, sp.Expr]) -> sp.Expr:
+def parse(value: object, names: Mapping[str, sp.Expr],
+          unavailable: Mapping[str, str] | None = None, smooth: bool = False) -> sp.Expr:
     """Turn a YAML scalar (number or expression string) into a SymPy expression.
 
-    ``names`` maps every name the expression may use to its SymPy value.
+    ``names`` maps every name the expression may use to its SymPy value;
+    ``unavailable`` maps names that exist in the file but not here to what they
+    are (for the message, e.g. ``{"q1": "a coordinate"}``); ``smooth`` refuses
+    the functions with kinks or jumps (NOT_SMOOTH), for expressions that get
+    differentiated.
     """
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return number(value)
@@ -65,38 +82,66 @@ def parse(value: object, names: Mapping[str, sp.Expr]) -> sp.Expr:
         raise ExpressionError("empty expression")
     if len(text) > MAX_LENGTH:
         raise ExpressionError(f"expression longer than {MAX_LENGTH} characters")
+    shown = _shorten(text)
     try:
         tree = ast.parse(text, mode="eval")
     except SyntaxError as err:
         hint = " (use ** for powers)" if "^" in text else ""
-        raise ExpressionError(f"syntax error in {text!r} at column {err.offset}{hint}") from None
+        why = f": {err.msg}" if err.msg and err.msg != "invalid syntax" else ""
+        where = f" at column {err.offset}" if err.offset else " at the end"
+        raise ExpressionError(f"syntax error in {shown!r}{where}{why}{hint}; "
+                              "write an arithmetic expression such as 2*L1*cos(q1)") from None
     except (ValueError, RecursionError, MemoryError):
-        raise ExpressionError(f"cannot parse {text[:60]!r}") from None
+        raise ExpressionError(f"cannot parse {shown!r}") from None
     try:
-        result = _Builder(names).build(tree.body)
-    except RecursionError:
+        result = _Builder(names, unavailable or {}, smooth).build(tree.body)
+        infinite = result.has(sp.zoo, sp.oo, -sp.oo, sp.nan)
+    except ExpressionError:
+        raise
+    except (RecursionError, MemoryError):
         raise ExpressionError("expression nested too deeply") from None
-    if result.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
-        raise ExpressionError(f"{text!r} is not finite (division by zero or overflow)")
+    except (TypeError, ValueError, ArithmeticError) as err:   # SymPy refusing, e.g. max(I, 1)
+        raise ExpressionError(f"cannot evaluate {shown!r} ({_shorten(str(err))})") from None
+    if infinite:
+        raise ExpressionError(f"{shown!r} is not finite (division by zero or overflow)")
     return result
 
 
+def _shorten(text: str, limit: int = 60) -> str:
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 class _Builder:
-    def __init__(self, names: Mapping[str, sp.Expr]):
-        self.names = names
+    def __init__(self, names: Mapping[str, sp.Expr], unavailable: Mapping[str, str] = {},
+                 smooth: bool = False):
+        self.names, self.unavailable, self.smooth = names, unavailable, smooth
 
     def build(self, node: ast.AST) -> sp.Expr:
+        if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
+            spine = []                  # a + b + c + ... is left-deep: walk it, not recurse
+            while isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
+                spine.append(node)
+                node = node.left
+            value = self.build(node)
+            for parent in reversed(spine):
+                value = _exact(self._binary(parent.op, value, self.build(parent.right)))
+            return value
+        return self._node(node)
+
+    def _node(self, node: ast.AST) -> sp.Expr:
         if isinstance(node, ast.Constant):
             if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
-                raise ExpressionError(f"{_describe(node.value)} is not allowed in an expression")
+                raise ExpressionError(f"{_describe(node.value)} is not allowed in an expression; "
+                                      "use numbers, names, + - * / ** and the functions "
+                                      + ", ".join(sorted(FUNCTIONS)))
+            if isinstance(node.value, float) and math.isinf(node.value):
+                raise ExpressionError("number too large (the largest allowed is about 1.8e308)")
             return number(node.value)
         if isinstance(node, ast.Name):
             return self._name(node.id)
         if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.UAdd, ast.USub)):
             operand = self.build(node.operand)
             return -operand if isinstance(node.op, ast.USub) else operand
-        if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
-            return self._binary(node.op, self.build(node.left), self.build(node.right))
         if isinstance(node, ast.Call):
             return self._call(node)
         raise ExpressionError(f"{_construct(node)} is not allowed; use numbers, names, "
@@ -110,9 +155,15 @@ class _Builder:
         if name in FUNCTIONS:
             raise ExpressionError(f"{name} is a function; call it as {name}(...)")
         allowed = sorted(self.names) + sorted(CONSTANTS)
+        shown = ", ".join(allowed[:20]) + (", ..." if len(allowed) > 20 else "")
+        if name.startswith("_"):
+            raise ExpressionError(f"name {_shorten(name, 30)!r} is not allowed (no name starts "
+                                  f"with _); allowed here: {shown}")
+        if name in self.unavailable:
+            raise ExpressionError(f"{name!r} is {self.unavailable[name]} and cannot be used "
+                                  f"here; allowed here: {shown}")
         close = difflib.get_close_matches(name, allowed, n=1)
         hint = f" (did you mean {close[0]}?)" if close else ""
-        shown = ", ".join(allowed[:20]) + (", ..." if len(allowed) > 20 else "")
         raise ExpressionError(f"unknown name {name!r}{hint}; allowed here: {shown}")
 
     @staticmethod
@@ -128,20 +179,29 @@ class _Builder:
                 raise ExpressionError("division by zero")
             return left / right
         if left.is_Number and right.is_Number and not (
-                right.is_Integer and abs(right) <= MAX_EXACT_EXPONENT):
+                right.is_Integer and abs(right) <= MAX_EXACT_EXPONENT and left.is_Rational
+                and _bits(left) * abs(int(right)) <= MAX_EXACT_BITS):
             try:   # keep huge exact powers from eating memory
                 return number(float(left) ** float(right))
-            except (OverflowError, ZeroDivisionError, TypeError):
-                raise ExpressionError("numeric power overflows") from None
+            except (OverflowError, ZeroDivisionError, TypeError, ValueError):
+                raise ExpressionError("numeric power overflows (the largest number allowed "
+                                      "is about 1.8e308)") from None
         return left ** right
 
     def _call(self, node: ast.Call) -> sp.Expr:
-        if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
-            called = node.func.id if isinstance(node.func, ast.Name) else _construct(node.func)
-            raise ExpressionError(f"call of {called} is not allowed; allowed functions: "
-                                  + ", ".join(sorted(FUNCTIONS)))
+        if not isinstance(node.func, ast.Name):
+            raise ExpressionError(f"{_construct(node.func)} is not allowed; use numbers, names, "
+                                  "+ - * / ** and the functions " + ", ".join(sorted(FUNCTIONS)))
+        if node.func.id not in FUNCTIONS:
+            raise ExpressionError(f"call of {_shorten(node.func.id, 30)} is not allowed; allowed "
+                                  "functions: " + ", ".join(sorted(FUNCTIONS)))
         if node.keywords or any(isinstance(arg, ast.Starred) for arg in node.args):
             raise ExpressionError(f"{node.func.id}() takes positional arguments only")
+        if self.smooth and node.func.id in NOT_SMOOTH:
+            raise ExpressionError(f"{node.func.id}() has a kink or a jump and is not allowed "
+                                  "here (this expression is differentiated twice); use the "
+                                  "smooth functions " + ", ".join(sorted(set(FUNCTIONS)
+                                                                         - NOT_SMOOTH)))
         function, arities = FUNCTIONS[node.func.id]
         count = len(node.args)
         if (arities is None and count < 2) or (arities is not None and count not in arities):
@@ -150,21 +210,43 @@ class _Builder:
         return function(*(self.build(arg) for arg in node.args))
 
 
+def _bits(value: sp.Rational) -> int:
+    return max(int(value.p).bit_length(), int(value.q).bit_length())
+
+
+def _exact(value: sp.Expr) -> sp.Expr:
+    """An exact number past MAX_EXACT_BITS becomes a float (or an overflow error)."""
+    if value.is_Rational and _bits(value) > MAX_EXACT_BITS:
+        try:
+            return number(float(value))
+        except (OverflowError, ValueError):
+            raise ExpressionError("number too large (the largest allowed is about "
+                                  "1.8e308)") from None
+    return value
+
+
 def _construct(node: ast.AST) -> str:
     """A user-facing name for a disallowed syntax node."""
     names = {ast.Attribute: "attribute access", ast.Subscript: "subscripting",
              ast.Lambda: "lambda", ast.Compare: "comparison", ast.BoolOp: "and/or",
-             ast.IfExp: "if-expression", ast.List: "a list", ast.Tuple: "a tuple",
+             ast.IfExp: "if-expression", ast.List: "a list",
+             ast.Tuple: "a comma (a tuple; write decimals with a point, e.g. 1.5)",
              ast.Dict: "a dict", ast.Set: "a set", ast.JoinedStr: "an f-string",
              ast.NamedExpr: ":=", ast.Starred: "*-unpacking"}
+    if isinstance(node, ast.Attribute):
+        return f"attribute access (.{_shorten(node.attr, 30)})"
     for kind, label in names.items():
         if isinstance(node, kind):
             return label
-    if isinstance(node, ast.BinOp):
-        return f"the operator {type(node.op).__name__}"
-    if isinstance(node, ast.UnaryOp):
-        return f"the operator {type(node.op).__name__}"
+    if isinstance(node, (ast.BinOp, ast.UnaryOp)):
+        symbol = _OPERATORS.get(type(node.op), type(node.op).__name__)
+        return f"the operator {symbol}" + (" (use ** for powers)" if symbol == "^" else "")
     return type(node).__name__
+
+
+_OPERATORS = {ast.BitXor: "^", ast.BitAnd: "&", ast.BitOr: "|", ast.FloorDiv: "//",
+              ast.Mod: "%", ast.LShift: "<<", ast.RShift: ">>", ast.MatMult: "@",
+              ast.Invert: "~", ast.Not: "not"}
 
 
 def _describe(value: object) -> str:
@@ -173,5 +255,10 @@ def _describe(value: object) -> str:
     if value is None:
         return "nothing (null)"
     if isinstance(value, str):
-        return f"the string {value!r}"
-    return f"a {type(value).__name__}"
+        return f"the string {_shorten(value, 40)!r}"
+    if value is Ellipsis:
+        return "..."
+    labels = {complex: "a complex number", bytes: "bytes", list: "a list", dict: "a mapping",
+              int: "an integer", float: "a number", datetime.date: "a date",
+              datetime.datetime: "a date and time"}
+    return labels.get(type(value), f"a value of type {type(value).__name__}")

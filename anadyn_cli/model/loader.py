@@ -1,15 +1,27 @@
 """YAML robot file -> validated, frozen ``Robot``.
 
 Every mistake raises ``ModelError`` naming the file, line, key path, what is
-wrong and what is allowed.  The README documents each key read here.
+wrong and what is allowed; nothing else escapes (``tests/test_fuzz.py``).
+The README documents each key read here.
+
+Beyond the types and ranges of single values, the robot as a whole is
+checked where that is cheap and certain:
+
+- every displacement, its rates and every control law are finite real
+  numbers at the initial state (else the first step of any run fails);
+- the mass matrix is not singular everywhere (``massmatrix``): a coordinate,
+  or a combination of coordinates, that moves no mass leaves M(q) q'' = ...
+  without a solution.  M is computed numerically, by its own recursion,
+  at the initial state and at two random states; the robot is refused only
+  if M is singular at all three.
 """
 from __future__ import annotations
 
 import difflib
 import hashlib
-import keyword
 import math
 import re
+import warnings
 from pathlib import Path
 from typing import Mapping
 
@@ -18,15 +30,21 @@ import sympy as sp
 
 from ..errors import ModelError
 from . import expressions
+from . import massmatrix
+from .names import IDENTIFIER, RESERVED_NAMES, default_name
 from .robot import (GROUND, JOINT_TYPES, Actuator, Body, Controller, Coordinate, Joint,
                     Robot, Simulation, Trajectory, frozen_map)
 from .yamlsource import load, read_text
 
-IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,63}\Z")
-# names also become Python identifiers in generated code and CSV columns
-RESERVED_NAMES = (expressions.RESERVED | {"t", GROUND, "math", "numpy"}
-                  | set(keyword.kwlist) | set(keyword.softkwlist))
 TRAJECTORY_KINDS = ("cycloidal", "quintic", "expression")
+# the integrators by name (integrators.METHODS, kept here so that loading a
+# robot does not import the numeric modules)
+METHODS = ("auto", "odeint", "RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+MAX_BODIES = 100          # symbolic derivation is out of reach long before this
+MAX_COORDINATES = 100
+MAX_ROWS = 1_000_000      # simulation.t_end / simulation.output_step
+# constants beyond these make SymPy's exact arithmetic crawl (300-digit rationals)
+SMALLEST, LARGEST = 1e-30, 1e30
 TOP_KEYS = ("name", "description", "parameters", "gravity", "coordinates", "bodies",
             "actuators", "controller", "trajectory", "simulation")
 
@@ -41,8 +59,7 @@ def robot_from_text(text: str, source: str = "<robot>") -> Robot:
     """Validate YAML text describing a robot (``source`` names it in errors)."""
     data, lines = load(text, source)
     digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
-    default_name = Path(source).stem if source.endswith((".yaml", ".yml")) else "robot"
-    return _RobotBuilder(Cursor(data, "", source, lines), digest, default_name).build()
+    return _RobotBuilder(Cursor(data, "", source, lines), digest, default_name(source)).build()
 
 
 class Cursor:
@@ -67,14 +84,19 @@ class Cursor:
                 required: tuple[str, ...] = ()) -> dict[str, "Cursor"]:
         """The children of a mapping; unknown keys (if ``allowed``) and missing required ones fail."""
         if not isinstance(self.value, dict):
+            if not self.path:
+                raise self.error(f"the file must be a YAML mapping of keys to values, got "
+                                 f"{_kind(self.value)}")
             raise self.error(f"expected a mapping, got {_kind(self.value)}")
         if allowed is not None:
             for key in self.value:
                 if key not in allowed:
                     close = difflib.get_close_matches(key, allowed, n=1)
                     hint = f"did you mean {close[0]!r}? " if close else ""
+                    split = (" (a comma or colon inside {...} splits an expression: quote "
+                             "it)" if re.search(r"[()*/+^]", key) else "")
                     raise self.child(key, None).error(
-                        f"unknown key; {hint}allowed: {', '.join(allowed)}")
+                        f"unknown key{split}; {hint}allowed: {', '.join(allowed)}")
         for key in required:
             if key not in self.value:
                 raise self.error(f"missing required key {key!r}")
@@ -93,20 +115,24 @@ class Cursor:
     def identifier(self, what: str = "name") -> str:
         value = self.value
         if not isinstance(value, str) or not IDENTIFIER.match(value):
+            shown = repr(value) if not isinstance(value, str) or len(value) <= 40 else (
+                f"{value[:37]!r}... ({len(value)} characters)")
             raise self.error(f"{what} must be a letter followed by up to 63 letters, digits "
-                             f"or underscores, got {value!r}")
+                             f"or underscores, got {shown}")
         if value in RESERVED_NAMES:
             raise self.error(f"{value!r} is reserved; choose another {what}")
         return value
 
     def choice(self, options: tuple[str, ...]) -> str:
-        if self.value not in options:
-            raise self.error(f"must be one of {', '.join(options)}, got {self.value!r}")
+        if not isinstance(self.value, str) or self.value not in options:
+            shown = repr(_short(self.value)) if isinstance(self.value, str) else _kind(self.value)
+            raise self.error(f"must be one of {', '.join(options)}, got {shown}")
         return self.value
 
-    def expr(self, names: Mapping[str, sp.Expr]) -> sp.Expr:
+    def expr(self, names: Mapping[str, sp.Expr], unavailable: Mapping[str, str] | None = None,
+             smooth: bool = False) -> sp.Expr:
         try:
-            return expressions.parse(self.value, names)
+            return expressions.parse(self.value, names, unavailable, smooth)
         except expressions.ExpressionError as err:
             raise self.error(str(err)) from None
 
@@ -123,11 +149,12 @@ class Cursor:
             raise self.error(f"must be finite, got {value}")
         return value
 
-    def vector(self, names: Mapping[str, sp.Expr]) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
+    def vector(self, names: Mapping[str, sp.Expr], unavailable: Mapping[str, str] | None = None
+               ) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
         items = self.sequence()
         if len(items) != 3:
             raise self.error(f"expected a list of 3 components [x, y, z], got {len(items)}")
-        return tuple(item.expr(names) for item in items)
+        return tuple(item.expr(names, unavailable) for item in items)
 
 
 def _kind(value: object) -> str:
@@ -137,7 +164,10 @@ def _kind(value: object) -> str:
         return f"the boolean {str(value).lower()}"
     if isinstance(value, str):
         return f"the text {value!r}" if len(value) < 40 else "text"
-    return {dict: "a mapping", list: "a list"}.get(type(value), f"a {type(value).__name__}")
+    if isinstance(value, (int, float)):
+        return f"the number {value!r}" if len(repr(value)) < 40 else "a number"
+    return {dict: "a mapping", list: "a list"}.get(
+        type(value), f"a {type(value).__name__.replace('datetime', 'date and time')}")
 
 
 class _RobotBuilder:
@@ -149,6 +179,10 @@ class _RobotBuilder:
         self.owner: dict[str, str] = {}            # every name in the file -> what it is
         self.definitions: dict[str, sp.Expr] = {}
         self.values: dict[sp.Symbol, sp.Expr] = {}
+        self.gain_values: dict[sp.Symbol, sp.Expr] = {}
+        self.q: dict[str, sp.Symbol] = {}
+        # what each name in the file is, to say why it cannot be used somewhere
+        self.kinds: dict[str, str] = {"t": "time"}
 
     @staticmethod
     def key_name(item: Cursor, key: str, what: str) -> str:
@@ -157,29 +191,60 @@ class _RobotBuilder:
 
     def claim(self, cursor: Cursor, name: str, what: str) -> None:
         if name in self.owner:
-            raise cursor.error(f"name {name!r} is already used by {self.owner[name]}")
+            raise cursor.error(f"name {name!r} is already used by {self.owner[name]}; "
+                               "every name in a robot file must be different")
         self.owner[name] = what
+        self.kinds[name] = what
+
+    def unavailable(self, allowed: Mapping[str, object]) -> dict[str, str]:
+        return {name: what for name, what in self.kinds.items() if name not in allowed}
 
     def build(self) -> Robot:
         top = self.root.mapping(TOP_KEYS, required=("coordinates", "bodies"))
         name = top["name"].identifier("robot name") if "name" in top else self.default_name
         description = top["description"].text() if "description" in top else ""
+        self.prescan(top)
         if "parameters" in top:
             self.parameters(top["parameters"])
         gravity = self.constant_vector(top.get("gravity"))
         coordinate_cursors = self.coordinate_names(top["coordinates"])
-        bodies, units = self.bodies(top["bodies"])
+        bodies, units, body_cursors = self.bodies(top["bodies"])
         coordinates = self.coordinates(coordinate_cursors, units)
+        self.check_displacements(bodies, body_cursors, coordinates)
         actuators = self.actuators(top["actuators"], bodies) if "actuators" in top else ()
-        controller = (self.controller(top["controller"], actuators)
-                      if "controller" in top else None)
+        if "controller" in top:
+            controller = self.controller(top["controller"], actuators, coordinates)
+        else:
+            controller = None
         trajectory = self.trajectory(top["trajectory"]) if "trajectory" in top else None
         simulation = self.simulation(top["simulation"]) if "simulation" in top else Simulation()
-        return Robot(name=name, source=self.root.source, digest=self.digest,
-                     parameters=frozen_map(self.definitions), gravity=gravity,
-                     coordinates=coordinates, bodies=bodies, actuators=actuators,
-                     controller=controller, trajectory=trajectory, simulation=simulation,
-                     description=description)
+        robot = Robot(name=name, source=self.root.source, digest=self.digest,
+                      parameters=frozen_map(self.definitions), gravity=gravity,
+                      coordinates=coordinates, bodies=bodies, actuators=actuators,
+                      controller=controller, trajectory=trajectory, simulation=simulation,
+                      description=description, name_given="name" in top)
+        self.check_mass_matrix(robot, top["coordinates"], coordinate_cursors)
+        return robot
+
+    def prescan(self, top: dict[str, Cursor]) -> None:
+        """Names defined further down, so that using one too early gets a clear message."""
+        def keys(cursor: Cursor | None) -> list[str]:
+            value = cursor.value if cursor is not None else None
+            return [k for k in value if isinstance(k, str)] if isinstance(value, dict) else []
+
+        for key in keys(top.get("parameters")):
+            self.kinds[key] = "a parameter defined further down"
+        for key in keys(top.get("actuators")):
+            self.kinds.setdefault(key, "an actuator")
+        controller = top.get("controller")
+        if controller is not None and isinstance(controller.value, dict):
+            for key in keys(Cursor(controller.value.get("gains"), "", "", {})):
+                self.kinds.setdefault(key, "a controller gain")
+        bodies = top["bodies"].value
+        if isinstance(bodies, list):
+            for item in bodies:
+                if isinstance(item, dict) and isinstance(item.get("name"), str):
+                    self.kinds.setdefault(item["name"], "a body")
 
     # -- names and numbers -------------------------------------------------
     def parameters(self, cursor: Cursor) -> None:
@@ -187,7 +252,7 @@ class _RobotBuilder:
         for key, item in cursor.mapping().items():
             name = self.key_name(item, key, "parameter name")
             self.claim(item, name, "a parameter")
-            definition = item.expr(self.symbols)
+            definition = item.expr(self.symbols, self.unavailable(self.symbols))
             value = definition.xreplace(self.values)
             self.check_numeric(item, value)
             symbol = sp.Symbol(name, real=True)
@@ -195,38 +260,59 @@ class _RobotBuilder:
             self.definitions[name] = definition
             self.values[symbol] = value
 
+    def constant(self, cursor: Cursor) -> sp.Expr:
+        """A number or an expression of the parameters."""
+        return cursor.expr(self.symbols, self.unavailable(self.symbols))
+
     def check_numeric(self, cursor: Cursor, expr: sp.Expr) -> float:
-        value = expr.xreplace(self.values)
-        if value.free_symbols:
-            raise cursor.error("must not depend on coordinates or time here")
-        number = complex(value.evalf())
+        """The finite real value of a constant expression (ModelError otherwise)."""
+        try:
+            value = expr.xreplace(self.values).xreplace(self.gain_values)
+            if value.free_symbols:
+                raise cursor.error("must be a number here, got an expression of "
+                                   f"{', '.join(sorted(map(str, value.free_symbols)))}")
+            number = complex(value.evalf())
+        except ModelError:
+            raise
+        except (RecursionError, MemoryError):
+            raise cursor.error("expression nested too deeply") from None
+        except (TypeError, ValueError, ArithmeticError):
+            raise cursor.error(f"cannot evaluate {_short(value)} to a number") from None
         if number.imag != 0 or not math.isfinite(number.real):
-            raise cursor.error(f"must be a finite real number, got {value}")
+            raise cursor.error(f"must be a finite real number, got {_short(value)}")
+        if number.real != 0 and not SMALLEST <= abs(number.real) <= LARGEST:
+            raise cursor.error(f"{number.real:g} is out of range: numbers in a robot file are 0 "
+                               f"or between {SMALLEST:g} and {LARGEST:g} in size (SI units)")
         return number.real
 
     def constant_vector(self, cursor: Cursor | None) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
         """[x, y, z] of parameter expressions (zero when the key is absent)."""
         if cursor is None:
             return (sp.Integer(0),) * 3
-        vector = cursor.vector(self.symbols)
-        for component in vector:
-            self.check_numeric(cursor, component)
+        vector = cursor.vector(self.symbols, self.unavailable(self.symbols))
+        for i, component in enumerate(vector):
+            self.check_numeric(cursor.child(i, component), component)
         return vector
 
-    def positive(self, cursor: Cursor, expr: sp.Expr, what: str) -> None:
-        if self.check_numeric(cursor, expr) <= 0:
-            raise cursor.error(f"{what} must be positive, got {float(expr.xreplace(self.values)):g}")
+    def positive(self, cursor: Cursor, expr: sp.Expr, what: str) -> float:
+        value = self.check_numeric(cursor, expr)
+        if value <= 0:
+            raise cursor.error(f"must be positive ({what}), got {value:g}")
+        return value
 
     # -- coordinates ---------------------------------------------------------
     def coordinate_names(self, cursor: Cursor) -> dict[str, Cursor]:
         items = cursor.mapping()
         if not items:
-            raise cursor.error("at least one coordinate is required")
+            raise cursor.error("at least one coordinate is required, e.g. {q1: {initial: 0}}")
+        if len(items) > MAX_COORDINATES:
+            raise cursor.error(f"{len(items)} coordinates; anadyn handles at most "
+                               f"{MAX_COORDINATES}")
         for key, item in items.items():
             self.key_name(item, key, "coordinate name")
             self.claim(item, key, "a coordinate")
-            for derived in ("d" + key, "dd" + key):
-                self.claim(item, derived, f"the rates of coordinate {key!r}")
+            self.claim(item, "d" + key, f"the rate of coordinate {key!r}")
+            self.claim(item, "dd" + key, f"the acceleration of coordinate {key!r}")
         self.q = {k: sp.Symbol(k, real=True) for k in items}
         return items
 
@@ -237,20 +323,24 @@ class _RobotBuilder:
             if key not in units:
                 raise item.error("no joint displacement uses this coordinate; every coordinate "
                                  "must move some joint")
-            initial = fields["initial"].expr(self.symbols) if "initial" in fields else sp.Integer(0)
-            rate = fields["rate"].expr(self.symbols) if "rate" in fields else sp.Integer(0)
+            values = {}
             for name in ("initial", "rate"):
                 if name in fields:
-                    self.check_numeric(fields[name], initial if name == "initial" else rate)
-            result.append(Coordinate(key, initial.xreplace(self.values),
-                                     rate.xreplace(self.values), units[key]))
+                    expr = self.constant(fields[name])
+                    self.check_numeric(fields[name], expr)
+                    values[name] = expr.xreplace(self.values)
+                else:
+                    values[name] = sp.Integer(0)
+            result.append(Coordinate(key, values["initial"], values["rate"], units[key]))
         return tuple(result)
 
     # -- bodies --------------------------------------------------------------
-    def bodies(self, cursor: Cursor) -> tuple[tuple[Body, ...], dict[str, str]]:
+    def bodies(self, cursor: Cursor) -> tuple[tuple[Body, ...], dict[str, str], dict[str, Cursor]]:
         items = cursor.sequence()
         if not items:
             raise cursor.error("at least one body is required")
+        if len(items) > MAX_BODIES:
+            raise cursor.error(f"{len(items)} bodies; anadyn handles at most {MAX_BODIES}")
         free_coordinates = iter(self.q.values())
         bodies: dict[str, Body] = {}
         cursors: dict[str, Cursor] = {}
@@ -258,19 +348,25 @@ class _RobotBuilder:
         for item in items:
             body = self.body(item, free_coordinates, units)
             if body.name in bodies:
-                raise item.child("name", None).error(f"duplicate body name {body.name!r}")
+                raise item.child("name", None).error(
+                    f"duplicate body name {body.name!r}; every body needs its own name")
             bodies[body.name] = body
             cursors[body.name] = item
-        return self.tree_order(bodies, cursors), units
+        return self.tree_order(bodies, cursors), units, cursors
 
     def body(self, item: Cursor, free_coordinates, units: dict[str, str]) -> Body:
         fields = item.mapping(("name", "parent", "joint", "mass", "com", "inertia"),
                               required=("name", "joint", "mass"))
         name = fields["name"].identifier("body name")
-        parent = fields["parent"].text() if "parent" in fields else GROUND
+        parent = GROUND
+        if "parent" in fields:
+            parent = fields["parent"].value
+            if not isinstance(parent, str):
+                raise fields["parent"].error(f"expected 'ground' or a body name, got "
+                                             f"{_kind(parent)}")
         joint = self.joint(fields["joint"], free_coordinates, units)
-        mass = fields["mass"].expr(self.symbols)
-        self.positive(fields["mass"], mass, "mass")
+        mass = self.constant(fields["mass"])
+        self.positive(fields["mass"], mass, "a mass in kg")
         com = self.constant_vector(fields.get("com"))
         inertia = self.inertia(fields["inertia"]) if "inertia" in fields else sp.zeros(3, 3)
         return Body(name, parent, joint, mass, com, sp.ImmutableMatrix(inertia))
@@ -285,18 +381,22 @@ class _RobotBuilder:
         if kind == "fixed":
             for key in ("axis", "displacement"):
                 if key in fields:
-                    raise fields[key].error("a fixed joint has no axis or displacement")
+                    raise fields[key].error("a fixed joint has no axis or displacement; "
+                                            "remove it or make the joint revolute or prismatic")
             return Joint(kind, zero, origin, rpy, sp.Integer(0))
         if "axis" not in fields:
             raise cursor.error(f"missing required key 'axis' for a {kind} joint")
-        axis = fields["axis"].vector(self.symbols)
+        axis = self.constant_vector(fields["axis"])
         numeric = np.array([self.check_numeric(fields["axis"], a) for a in axis])
         norm = float(np.linalg.norm(numeric))
-        if norm < 1e-12:
-            raise fields["axis"].error("axis must not be the zero vector")
+        if not norm > 1e-12:
+            raise fields["axis"].error("axis must not be the zero vector; give a direction "
+                                       "such as [0, 0, 1]")
         axis = _unit(axis, self.values)
         if "displacement" in fields:
-            displacement = fields["displacement"].expr({**self.symbols, **self.q})
+            names = {**self.symbols, **self.q}
+            displacement = fields["displacement"].expr(names, self.unavailable(names),
+                                                       smooth=True)
         else:
             displacement = next(free_coordinates, None)
             if displacement is None:
@@ -305,7 +405,7 @@ class _RobotBuilder:
         used = [s for s in displacement.free_symbols if s.name in self.q]
         if not used:
             raise (fields.get("displacement") or cursor).error(
-                "the displacement must depend on at least one coordinate")
+                "the displacement must depend on at least one coordinate, e.g. q1 or q2 - q1")
         for symbol in sorted(used, key=str):
             units.setdefault(symbol.name, "rad" if kind == "revolute" else "m")
         return Joint(kind, axis, origin, rpy, displacement)
@@ -313,13 +413,25 @@ class _RobotBuilder:
     def inertia(self, cursor: Cursor) -> sp.Matrix:
         keys = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
         fields = cursor.mapping(keys)
-        value = {k: fields[k].expr(self.symbols) if k in fields else sp.Integer(0) for k in keys}
+        value = {}
+        numbers = {}
+        for k in keys:
+            if k in fields:
+                value[k] = self.constant(fields[k])
+                numbers[k] = self.check_numeric(fields[k], value[k])
+            else:
+                value[k], numbers[k] = sp.Integer(0), 0.0
         matrix = sp.Matrix([[value["ixx"], value["ixy"], value["ixz"]],
                             [value["ixy"], value["iyy"], value["iyz"]],
                             [value["ixz"], value["iyz"], value["izz"]]])
-        numeric = np.array([[self.check_numeric(cursor, e) for e in row]
-                            for row in matrix.tolist()])
-        moments = np.linalg.eigvalsh(numeric)
+        numeric = np.array([[numbers["ixx"], numbers["ixy"], numbers["ixz"]],
+                            [numbers["ixy"], numbers["iyy"], numbers["iyz"]],
+                            [numbers["ixz"], numbers["iyz"], numbers["izz"]]])
+        with np.errstate(all="ignore"):
+            moments = np.linalg.eigvalsh(numeric) if np.isfinite(numeric).all() else None
+        if moments is None or not np.isfinite(moments).all():
+            raise cursor.error("inertia tensor entries are too large to check (at most "
+                               "about 1e150)")
         scale = max(1.0, float(np.abs(moments).max()))
         if moments[0] < -1e-12 * scale:
             raise cursor.error(f"inertia tensor must be positive semidefinite; its principal "
@@ -331,28 +443,94 @@ class _RobotBuilder:
         return matrix
 
     def tree_order(self, bodies: dict[str, Body], cursors: dict[str, Cursor]) -> tuple[Body, ...]:
-        """Parents before children; unknown parents and cycles fail."""
+        """Parents before children (by depth, then file order); unknown parents and cycles fail."""
         for name, body in bodies.items():
             if body.parent != GROUND and body.parent not in bodies:
                 options = [GROUND, *bodies]
                 close = difflib.get_close_matches(body.parent, options, n=1)
                 hint = f" (did you mean {close[0]!r}?)" if close else ""
                 raise cursors[name].child("parent", None).error(
-                    f"unknown parent {body.parent!r}{hint}; use 'ground' or a body name")
-        ordered: list[Body] = []
-        placed = {GROUND}
-        remaining = dict(bodies)
-        while remaining:
-            ready = [b for b in remaining.values() if b.parent in placed]
-            if not ready:
-                cycle = sorted(remaining)
+                    f"unknown parent {_short(body.parent)!r}{hint}; use 'ground' or a body name")
+        depth: dict[str, int] = {GROUND: 0}
+        for name in bodies:
+            chain = []
+            current = name
+            while current not in depth and current not in chain:
+                chain.append(current)
+                current = bodies[current].parent
+            if current not in depth:            # walked into a loop
+                cycle = sorted(set(bodies) - {n for n in depth if n != GROUND}
+                               - {n for n in bodies if self._reaches_ground(n, bodies)})
                 raise cursors[cycle[0]].child("parent", None).error(
                     f"bodies {', '.join(cycle)} form a cycle; every chain must start at ground")
-            for body in ready:
-                ordered.append(body)
-                placed.add(body.name)
-                del remaining[body.name]
-        return tuple(ordered)
+            for offset, member in enumerate(reversed(chain)):
+                depth[member] = depth[current] + offset + 1
+        return tuple(sorted(bodies.values(), key=lambda b: depth[b.name]))
+
+    @staticmethod
+    def _reaches_ground(name: str, bodies: dict[str, Body]) -> bool:
+        seen = set()
+        while name != GROUND and name not in seen:
+            seen.add(name)
+            name = bodies[name].parent
+        return name == GROUND
+
+    # -- whole-robot checks --------------------------------------------------
+    def initial_state(self, coordinates: tuple[Coordinate, ...]) -> dict[sp.Symbol, sp.Expr]:
+        state: dict[sp.Symbol, sp.Expr] = {sp.Symbol("t", real=True): sp.Integer(0)}
+        for c in coordinates:
+            state[c.symbol] = c.initial
+            state[c.rate_symbol] = c.rate
+        return state
+
+    def defined_at(self, cursor: Cursor, expr: sp.Expr, state: dict, what: str) -> None:
+        """``expr`` must be a finite real number at ``state`` (the initial state),
+        evaluated as the generated code will: in floating point, term by term
+        (so sqrt(-1)*0 fails as it will in a run)."""
+        used = sorted(expr.free_symbols & set(state), key=str)
+        if _defined(expr, used, [state[s] for s in used]):
+            return
+        where = ", ".join(f"{s} = {float(state[s]):.6g}" for s in used)
+        raise cursor.error(f"{what} is not a finite real number at the initial state "
+                           f"({where or 't = 0'}); it must be defined where the motion starts")
+
+    def check_displacements(self, bodies: tuple[Body, ...], cursors: dict[str, Cursor],
+                            coordinates: tuple[Coordinate, ...]) -> None:
+        state = self.initial_state(coordinates)
+        for body in bodies:
+            joint = body.joint
+            if joint.type == "fixed":
+                continue
+            joint_value = cursors[body.name].value["joint"]
+            cursor = cursors[body.name].child("joint", joint_value)
+            if "displacement" in joint_value:
+                cursor = cursor.child("displacement", joint_value["displacement"])
+            displacement = joint.displacement.xreplace(self.values)
+            self.defined_at(cursor, displacement, state, "the displacement")
+            for symbol in sorted(displacement.free_symbols & set(self.q.values()), key=str):
+                self.defined_at(cursor, sp.diff(displacement, symbol), state,
+                                f"its rate d/d{symbol}")
+
+    def check_mass_matrix(self, robot: Robot, cursor: Cursor,
+                          items: dict[str, Cursor]) -> None:
+        initial = [float(c.initial) for c in robot.coordinates]
+        motion = massmatrix.singular_everywhere(robot, initial)
+        if motion is None:
+            return
+        names = [c.name for c in robot.coordinates]
+        moving = [(name, v) for name, v in zip(names, motion) if abs(v) > 1e-6]
+        where = (f"the mass matrix is singular at the initial state and at "
+                 f"{massmatrix.RANDOM_STATES} random states")
+        if len(moving) == 1:
+            name = moving[0][0]
+            raise items[name].error(
+                f"moving {name} moves no mass ({where}); every coordinate must move a body "
+                "with mass off the joint axis or with inertia about it")
+        ratio = " : ".join(f"{v:.3g}" for _, v in moving)
+        raise cursor.error(
+            f"moving {', '.join(n for n, _ in moving)} with rates in the ratio {ratio} moves "
+            f"no mass ({where}); the coordinates must be independent: no combination of "
+            "them may leave every body at rest")
 
     # -- actuators, controller, trajectory, simulation -----------------------
     def actuators(self, cursor: Cursor, bodies: tuple[Body, ...]) -> tuple[Actuator, ...]:
@@ -362,28 +540,39 @@ class _RobotBuilder:
             self.key_name(item, key, "actuator name")
             self.claim(item, key, "an actuator")
             fields = item.mapping(("joint",), required=("joint",))
-            body_name = fields["joint"].text()
+            body_name = fields["joint"].value
+            if not isinstance(body_name, str):
+                raise fields["joint"].error(f"expected a body name, got {_kind(body_name)}")
             if body_name not in by_name:
-                raise fields["joint"].error(f"unknown body {body_name!r}; actuators act on the "
-                                            f"joint of one of: {', '.join(by_name)}")
+                shown = repr(_short(body_name))
+                close = (difflib.get_close_matches(body_name, list(by_name), n=1)
+                         if isinstance(body_name, str) else [])
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise fields["joint"].error(f"unknown body {shown}{hint}; actuators act on "
+                                            f"the joint of one of: {', '.join(by_name)}")
             kind = by_name[body_name].joint.type
             if kind == "fixed":
-                raise fields["joint"].error(f"body {body_name!r} has a fixed joint; nothing to drive")
+                raise fields["joint"].error(f"body {body_name!r} has a fixed joint; nothing to "
+                                            "drive (actuate a revolute or prismatic joint)")
             result.append(Actuator(key, body_name, "N*m" if kind == "revolute" else "N"))
         return tuple(result)
 
-    def controller(self, cursor: Cursor, actuators: tuple[Actuator, ...]) -> Controller:
+    def controller(self, cursor: Cursor, actuators: tuple[Actuator, ...],
+                   coordinates: tuple[Coordinate, ...]) -> Controller:
         fields = cursor.mapping(("gains", "laws"), required=("laws",))
         gains: dict[str, sp.Expr] = {}
         names = dict(self.symbols)
         if "gains" in fields:
             for key, item in fields["gains"].mapping().items():
                 self.key_name(item, key, "gain name")
-                self.claim(item, key, "a gain")
-                value = item.expr(names).xreplace(self.values)
+                self.claim(item, key, "a controller gain")
+                value = item.expr(names, self.unavailable(names))
                 self.check_numeric(item, value)
+                value = value.xreplace(self.values).xreplace(self.gain_values)
                 gains[key] = value
-                names[key] = sp.Symbol(key, real=True)
+                symbol = sp.Symbol(key, real=True)
+                names[key] = symbol
+                self.gain_values[symbol] = value
         t = sp.Symbol("t", real=True)
         names.update(self.q)
         names.update({"d" + k: sp.Symbol("d" + k, real=True) for k in self.q})
@@ -391,13 +580,16 @@ class _RobotBuilder:
         laws_cursor = fields["laws"]
         laws = {}
         actuator_names = [a.name for a in actuators]
+        state = self.initial_state(coordinates)
         for key, item in laws_cursor.mapping().items():
             if key not in actuator_names:
                 close = difflib.get_close_matches(key, actuator_names, n=1)
                 hint = f"did you mean {close[0]!r}? " if close else ""
                 raise item.error(f"law for unknown actuator; {hint}actuators: "
                                  f"{', '.join(actuator_names) or 'none'}")
-            laws[key] = item.expr(names)
+            laws[key] = item.expr(names, self.unavailable(names))
+            numeric = laws[key].xreplace(self.values).xreplace(self.gain_values)
+            self.defined_at(item, numeric, state, "the law")
         missing = [a for a in actuator_names if a not in laws]
         if missing:
             raise laws_cursor.error(f"no law for actuator(s) {', '.join(missing)}; "
@@ -408,8 +600,8 @@ class _RobotBuilder:
         fields = cursor.mapping(("kind", "duration", "from", "to", "expressions"),
                                 required=("kind", "duration"))
         kind = fields["kind"].choice(TRAJECTORY_KINDS)
-        duration = fields["duration"].expr(self.symbols).xreplace(self.values)
-        self.positive(fields["duration"], duration, "duration")
+        duration = self.constant(fields["duration"]).xreplace(self.values)
+        T = self.positive(fields["duration"], duration, "a duration in s")
         ends = {}
         for key in ("from", "to"):
             ends[key] = {}
@@ -419,17 +611,27 @@ class _RobotBuilder:
                                             "trajectories; 'expression' takes 'expressions'")
                 for name, item in fields[key].mapping().items():
                     self.known_coordinate(item, name)
-                    value = item.expr(self.symbols).xreplace(self.values)
+                    value = self.constant(item).xreplace(self.values)
                     self.check_numeric(item, value)
                     ends[key][name] = value
         expressions_ = {}
         if kind == "expression":
             if "expressions" not in fields:
                 raise cursor.error("missing required key 'expressions' for kind 'expression'")
-            names = {**self.symbols, "t": sp.Symbol("t", real=True)}
+            t = sp.Symbol("t", real=True)
+            names = {**self.symbols, "t": t}
             for name, item in fields["expressions"].mapping().items():
                 self.known_coordinate(item, name)
-                expressions_[name] = item.expr(names).xreplace(self.values)
+                expressions_[name] = item.expr(names, self.unavailable(names)
+                                               ).xreplace(self.values)
+                for moment in (sp.Integer(0), sp.Float(T)):
+                    try:
+                        value = complex(expressions_[name].xreplace({t: moment}).evalf())
+                    except (TypeError, ValueError, ArithmeticError, RecursionError):
+                        value = complex("nan")
+                    if value.imag != 0 or not math.isfinite(value.real):
+                        raise item.error(f"not a finite real number at t = {float(moment):g} "
+                                         f"s; q(t) must be defined for 0 <= t <= {T:g}")
         elif "expressions" in fields:
             raise fields["expressions"].error("'expressions' belongs to kind 'expression'")
         elif "to" not in fields:
@@ -441,7 +643,7 @@ class _RobotBuilder:
         if name not in self.q:
             close = difflib.get_close_matches(name, list(self.q), n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise cursor.error(f"unknown coordinate {name!r}{hint}; coordinates: "
+            raise cursor.error(f"unknown coordinate {_short(name)!r}{hint}; coordinates: "
                                f"{', '.join(self.q)}")
 
     def simulation(self, cursor: Cursor) -> Simulation:
@@ -449,13 +651,56 @@ class _RobotBuilder:
         values: dict[str, object] = {}
         for key in ("t_end", "output_step", "rtol", "atol"):
             if key in fields:
-                value = fields[key].number(self.symbols, self.values)
+                expr = self.constant(fields[key])
+                value = self.check_numeric(fields[key], expr)
                 if value <= 0:
                     raise fields[key].error(f"must be positive, got {value:g}")
                 values[key] = value
+        if "t_end" in values and "output_step" in values:
+            if values["output_step"] > values["t_end"]:
+                raise fields["output_step"].error(
+                    f"output step {values['output_step']:g} s is longer than t_end "
+                    f"{values['t_end']:g} s; it must be at most t_end")
+            rows = values["t_end"] / values["output_step"]
+            if rows > MAX_ROWS:
+                raise fields["output_step"].error(
+                    f"t_end / output_step = {rows:.3g} rows; at most {MAX_ROWS:,} "
+                    "(raise output_step or shorten t_end)")
         if "method" in fields:
-            values["method"] = fields["method"].text()
+            values["method"] = fields["method"].choice(METHODS)
         return Simulation(**values)
+
+
+def _defined(expr: sp.Expr, symbols: list, values: list) -> bool:
+    """Whether ``expr`` at ``symbols = values`` is a finite real number, in
+    floating point with ``math`` (as the generated code computes it)."""
+    try:
+        exact = expr.xreplace(dict(zip(symbols, values)))
+        number = complex(exact.evalf())
+    except (TypeError, ValueError, ArithmeticError, RecursionError):
+        return False
+    if number.imag != 0 or not math.isfinite(number.real):
+        return False
+    try:   # SymPy's own printer on an expression built from the whitelist: no file text
+        function = sp.lambdify(symbols, expr, modules="math")
+    except Exception:               # noqa: BLE001 (a form the printer lacks: exact check only)
+        return True
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            number = complex(function(*(float(v) for v in values)))
+    except (TypeError, ValueError, ArithmeticError, RecursionError):
+        return False
+    return number.imag == 0 and math.isfinite(number.real)
+
+
+def _short(value: object, limit: int = 60) -> str:
+    """str(value), cut to ``limit`` characters for a one-line message."""
+    try:
+        text = str(value)
+    except ValueError:             # e.g. an integer too long to print
+        text = "a huge number"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _unit(axis, values) -> tuple[sp.Expr, sp.Expr, sp.Expr]:

@@ -13,10 +13,10 @@ from typing import Mapping
 import sympy as sp
 
 from ..robotinfo import Simulation
+from .names import GROUND
 
 Vector = tuple[sp.Expr, sp.Expr, sp.Expr]
 JOINT_TYPES = ("revolute", "prismatic", "fixed")
-GROUND = "ground"
 
 
 def frozen_map(items) -> Mapping:
@@ -112,6 +112,7 @@ class Robot:
     trajectory: Trajectory | None = None
     simulation: Simulation = field(default_factory=Simulation)
     description: str = ""
+    name_given: bool = True                # False: named after its file
 
     def parameter_substitution(self, symbolic: bool = False) -> dict[sp.Symbol, sp.Expr]:
         """Parameter symbol -> value, for ``xreplace``.

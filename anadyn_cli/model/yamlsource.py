@@ -2,17 +2,24 @@
 
 Only ``yaml.SafeLoader`` is used.  Beyond ``safe_load`` this rejects what a
 robot file never needs and what hides mistakes: duplicate keys, aliases
-(and with them alias bombs), non-string keys, and files over MAX_BYTES.
+(and with them alias bombs), merge keys, explicit tags other than the plain
+types (``!!binary``, ``!!python/...``, ``!custom``), non-string keys, bytes
+that are not UTF-8, and files over MAX_BYTES (parsing is pure Python, about
+30 s per MiB at worst, so the cap also bounds the time spent).
 """
 from __future__ import annotations
 
+import stat
 from pathlib import Path
 
 import yaml
 
 from ..errors import ModelError
 
-MAX_BYTES = 1 << 20
+MAX_BYTES = 256 * 1024
+#: tags a plain YAML value resolves to; any other (explicit) tag is refused
+PLAIN_TAGS = frozenset(f"tag:yaml.org,2002:{name}" for name in
+                       ("str", "int", "float", "bool", "null", "map", "seq", "timestamp"))
 
 
 def read_text(path: str | Path) -> tuple[str, str]:
@@ -22,40 +29,58 @@ def read_text(path: str | Path) -> tuple[str, str]:
     try:
         if path.is_dir():
             raise ModelError("is a directory, expected a YAML file", source=name)
-        size = path.stat().st_size
-        if size > MAX_BYTES:
-            raise ModelError(f"file is {size} bytes, the limit is {MAX_BYTES}", source=name)
-        raw = path.read_bytes()
+        info = path.stat()
+        if not stat.S_ISREG(info.st_mode):     # a device or a pipe may never end
+            raise ModelError("is not a regular file, expected a YAML file", source=name)
+        if info.st_size > MAX_BYTES:
+            raise ModelError(f"file is {info.st_size} bytes, the limit is {MAX_BYTES}",
+                             source=name)
+        with path.open("rb") as stream:       # the size may change under us: read at most
+            raw = stream.read(MAX_BYTES + 1)   # one byte past the limit
+        if len(raw) > MAX_BYTES:
+            raise ModelError(f"file is over {MAX_BYTES} bytes, the limit", source=name)
     except FileNotFoundError:
         raise ModelError("no such file", source=name) from None
     except OSError as err:
         raise ModelError(f"cannot read: {err.strerror}", source=name) from None
     try:
         return raw.decode("utf-8"), name
-    except UnicodeDecodeError:
-        raise ModelError("not UTF-8 text", source=name) from None
+    except UnicodeDecodeError as err:
+        line = raw.count(b"\n", 0, err.start) + 1
+        column = err.start - (raw.rfind(b"\n", 0, err.start) + 1) + 1
+        raise ModelError(f"not UTF-8 text: byte 0x{raw[err.start]:02x} at column {column}; "
+                         "save the file as UTF-8", source=name, line=line) from None
 
 
 def load(text: str, source: str) -> tuple[object, dict[str, int]]:
     """Parse YAML text into (data, lines), lines mapping key paths to 1-based lines."""
     if len(text.encode("utf-8", "surrogatepass")) > MAX_BYTES:
         raise ModelError(f"text longer than {MAX_BYTES} bytes", source=source)
-    loader = yaml.SafeLoader(text)
+    loader = None
     try:
+        loader = yaml.SafeLoader(text)            # checks the characters first
         node = loader.get_single_node()
-        if node is None:
+        if node is None or (node.tag == "tag:yaml.org,2002:null" and not node.value.strip()
+                            and node.value != "~" and not node.style):
             raise ModelError("empty file, expected a YAML mapping", source=source)
         lines: dict[str, int] = {}
         data = _Walker(loader, lines, source).walk(node, "")
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         line = mark.line + 1 if mark is not None else None
+        position = getattr(err, "position", None)          # reader errors: bad characters
+        if line is None and isinstance(position, int):
+            line = text.count("\n", 0, position) + 1
         problem = getattr(err, "problem", None) or str(err).splitlines()[0]
+        context = getattr(err, "context", None)
+        if context and problem.startswith("but "):      # "expected a single document ..."
+            problem = f"{context}, {problem}"
         raise ModelError(f"not valid YAML: {problem}", source=source, line=line) from None
     except RecursionError:
         raise ModelError("YAML nested too deeply", source=source) from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
     return data, lines
 
 
@@ -70,6 +95,11 @@ class _Walker:
                              line=node.start_mark.line + 1)
         self.seen.add(id(node))
         self.lines.setdefault(path, node.start_mark.line + 1)
+        if node.tag not in PLAIN_TAGS:
+            tag = node.tag.replace("tag:yaml.org,2002:", "!!")
+            raise ModelError(f"YAML tag {tag} is not supported; write plain numbers, text, "
+                             "lists and mappings", source=self.source, path=path or None,
+                             line=node.start_mark.line + 1)
         if isinstance(node, yaml.MappingNode):
             result: dict[str, object] = {}
             for key_node, value_node in node.value:
@@ -78,7 +108,9 @@ class _Walker:
                                      source=self.source, path=path or None, line=key_node.start_mark.line + 1)
                 key = self.loader.construct_object(key_node)
                 if not isinstance(key, str):
-                    raise ModelError(f"keys must be names, got {key!r}", source=self.source,
+                    shown = {None: "null", True: "true", False: "false"}.get(key, repr(key)) \
+                        if key is None or isinstance(key, bool) else repr(key)
+                    raise ModelError(f"keys must be names, got {shown}", source=self.source,
                                      path=path or None,
                                      line=key_node.start_mark.line + 1)
                 child = f"{path}.{key}" if path else key
@@ -90,4 +122,10 @@ class _Walker:
             return result
         if isinstance(node, yaml.SequenceNode):
             return [self.walk(item, f"{path}[{i}]") for i, item in enumerate(node.value)]
-        return self.loader.construct_object(node)
+        try:
+            return self.loader.construct_object(node)
+        except (ValueError, OverflowError) as err:     # e.g. an int of 5000 digits, 2001-13-45
+            shown = node.value if len(node.value) <= 40 else node.value[:37] + "..."
+            reason = "too many digits" if "digits" in str(err) else str(err)
+            raise ModelError(f"cannot read the value {shown!r} ({reason})", source=self.source,
+                             path=path or None, line=node.start_mark.line + 1) from None

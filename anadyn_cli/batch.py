@@ -1,0 +1,594 @@
+"""Many anadyn runs from one YAML file, in parallel, with one summary and a CI exit code.
+
+A batch file lists jobs; each runs one command on one robot in its own
+process and is judged by its exit code and the key figures the command
+writes to ``<command>.json``:
+
+    description: what this batch is for            # optional
+    timeout: 600                                   # optional, s per job (default: none)
+    jobs:
+      - command: inverse                           # simulate, inverse, compare, accuracy, check
+        robot: ../robots/rr.yaml                   # relative to this file's folder
+        name: rr                                   # optional; default: the robot file's stem
+        options: [--no-plot, --dt, 0.05]           # or a mapping {no-plot: true, dt: 0.05}
+        expect:
+          exit_code: 0                             # default 0
+          max: {roundtrip.max_error: 1e-6}         # value <= bound
+          min: {points: 100}                       # value >= bound
+          equal: {roundtrip.passed: true}          # value == given
+      - command: simulate
+        robot: ../robots/broken.yaml
+        must_fail: 2                               # shorthand for expect.exit_code: 2
+
+Keys under max/min/equal are dotted paths into ``<command>.json``
+(``rows.0.max_error`` indexes a list); a key that is missing there is a
+miss that names it.  A mapping of options becomes ``--key value``
+(``--key`` for true, ``--no-key`` for false); ``--out`` is set by the
+batch: ``OUT/<command>/<name>/``, which also receives ``stdout.txt`` and
+``stderr.txt``.
+
+Each job runs ``python -m anadyn_cli COMMAND ROBOT OPTIONS --out FOLDER``;
+``run`` starts up to ``workers`` of them at a time (threads waiting on
+processes) and returns every result; ``write`` gives summary.csv,
+summary.json and junit.xml; ``check`` raises ``CheckFailed`` naming each job
+that missed its expectation.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+
+from . import output
+from .errors import CheckFailed, ModelError
+
+COMMANDS = ("simulate", "inverse", "compare", "accuracy", "check")
+TOP_KEYS = ("description", "timeout", "jobs")
+JOB_KEYS = ("command", "robot", "name", "options", "expect", "must_fail", "timeout")
+EXPECT_KEYS = ("exit_code", "max", "min", "equal")
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}\Z")
+TAIL_LINES = 20
+
+
+@dataclass(frozen=True)
+class Expectation:
+    exit_code: int | None = 0                    # None: any non-zero code
+    max: tuple[tuple[str, float], ...] = ()
+    min: tuple[tuple[str, float], ...] = ()
+    equal: tuple[tuple[str, object], ...] = ()
+
+    @property
+    def paths(self) -> list[str]:
+        return [p for group in (self.max, self.min, self.equal) for p, _ in group]
+
+    def describe_exit(self) -> str:
+        return "non-zero" if self.exit_code is None else str(self.exit_code)
+
+
+@dataclass(frozen=True)
+class Job:
+    command: str
+    robot: str                                   # path as given to the command
+    name: str
+    options: tuple[str, ...]
+    expect: Expectation
+    timeout: float | None = None
+    line: int | None = None
+
+    @property
+    def key(self) -> str:
+        return f"{self.command} {self.name}"
+
+    def folder(self, out: Path) -> Path:
+        return Path(out) / self.command / self.name
+
+    def argv(self, out: Path) -> list[str]:
+        return [sys.executable, "-m", "anadyn_cli", self.command, self.robot,
+                *self.options, "--out", str(self.folder(out))]
+
+
+@dataclass(frozen=True)
+class Batch:
+    source: str
+    jobs: tuple[Job, ...]
+    description: str = ""
+
+
+@dataclass
+class JobResult:
+    job: Job
+    exit_code: int | None                        # None: timed out or could not start
+    wall: float
+    stdout: str = ""
+    stderr: str = ""
+    figures: dict = field(default_factory=dict)  # expectation path -> value found
+    failures: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.failures
+
+    @property
+    def status(self) -> str:
+        return "ok" if self.ok else "FAIL"
+
+
+@dataclass
+class BatchResult:
+    batch: Batch
+    results: list[JobResult]                     # in the file's order
+    workers: int
+    wall: float
+    started: str                                 # ISO time
+
+    @property
+    def failed(self) -> list[JobResult]:
+        return [r for r in self.results if not r.ok]
+
+
+# ----------------------------------------------------------------------------
+# the batch file
+# ----------------------------------------------------------------------------
+def load_batch(path: str | Path) -> Batch:
+    """Read and validate a batch file; ModelError (exit 2) naming file, line and key path."""
+    from .model.yamlsource import load, read_text
+
+    text, source = read_text(path)
+    data, lines = load(text, source)
+    from .model.loader import Cursor
+
+    root = Cursor(data, "", source, lines)
+    top = root.mapping(TOP_KEYS, required=("jobs",))
+    description = top["description"].text() if "description" in top else ""
+    timeout = _positive(top["timeout"]) if "timeout" in top else None
+    items = top["jobs"].sequence()
+    if not items:
+        raise top["jobs"].error("expected at least one job")
+    folder = Path(source).parent
+    jobs: list[Job] = []
+    taken: dict[str, int] = {}
+    for item in items:
+        job = _job(item, folder, timeout)
+        if job.key in taken:
+            raise (item.mapping()["name"] if "name" in item.value else item).error(
+                f"a second job {job.key!r}; give one of them a different name")
+        taken[job.key] = 1
+        jobs.append(job)
+    return Batch(source, tuple(jobs), description)
+
+
+def _job(cursor, folder: Path, timeout: float | None) -> Job:
+    keys = cursor.mapping(JOB_KEYS, required=("command", "robot"))
+    command = keys["command"].choice(COMMANDS)
+    given = keys["robot"].text()
+    robot = Path(os.path.normpath(folder / given))
+    if not robot.is_file():
+        raise keys["robot"].error(f"no such file {str(robot)!r} (robot paths are relative "
+                                  f"to the batch file's folder)")
+    if "name" in keys:
+        name = keys["name"].value
+        if not isinstance(name, str) or not NAME.match(name):
+            raise keys["name"].error("a job name is a letter or digit followed by up to 63 "
+                                     f"letters, digits, '_', '.' or '-', got {name!r}")
+    else:
+        name = robot.stem
+    options = _options(keys["options"]) if "options" in keys else ()
+    expect = _expectation(keys["expect"]) if "expect" in keys else Expectation()
+    if "must_fail" in keys:
+        cursor_fail = keys["must_fail"]
+        if "expect" in keys and "exit_code" in keys["expect"].value:
+            raise cursor_fail.error("give either must_fail or expect.exit_code, not both")
+        value = cursor_fail.value
+        if value is True:
+            code = None
+        elif isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= 255:
+            code = value
+        else:
+            raise cursor_fail.error(f"must be an exit code from 1 to 255 or true (any "
+                                    f"non-zero code), got {value!r}")
+        expect = Expectation(code, expect.max, expect.min, expect.equal)
+    job_timeout = _positive(keys["timeout"]) if "timeout" in keys else timeout
+    return Job(command, str(robot), name, options, expect, job_timeout,
+               cursor.lines.get(cursor.path))
+
+
+def _options(cursor) -> tuple[str, ...]:
+    result: list[str] = []
+    if isinstance(cursor.value, dict):
+        for key, item in cursor.mapping().items():
+            flag = "--" + key.lstrip("-").replace("_", "-")
+            value = item.value
+            if value is True:
+                result.append(flag)
+            elif value is False:
+                result.append("--no-" + flag[2:])
+            elif isinstance(value, (str, int, float)):
+                result += [flag, str(value)]
+            else:
+                raise item.error("an option's value is text, a number, true or false")
+    else:
+        for item in cursor.sequence():
+            if isinstance(item.value, bool) or not isinstance(item.value, (str, int, float)):
+                raise item.error("each option is text or a number, e.g. [--dt, 0.05]")
+            result.append(str(item.value))
+    for word in result:
+        if word == "--out" or word.startswith("--out="):
+            raise cursor.error("--out is set by the batch (OUT/<command>/<name>/); "
+                               "leave it out")
+    return tuple(result)
+
+
+def _expectation(cursor) -> Expectation:
+    keys = cursor.mapping(EXPECT_KEYS)
+    code = 0
+    if "exit_code" in keys:
+        value = keys["exit_code"].value
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 255:
+            raise keys["exit_code"].error(f"must be an exit code from 0 to 255, got {value!r}")
+        code = value
+    bounds = {}
+    for group in ("max", "min"):
+        pairs = []
+        if group in keys:
+            for path, item in keys[group].mapping().items():
+                pairs.append((path, _number(item)))
+        bounds[group] = tuple(pairs)
+    equal = []
+    if "equal" in keys:
+        for path, item in keys["equal"].mapping().items():
+            if isinstance(item.value, (dict, list)):
+                raise item.error("expected a single value (text, number, true, false or null)")
+            equal.append((path, item.value))
+    return Expectation(code, bounds["max"], bounds["min"], tuple(equal))
+
+
+def _number(cursor) -> float:
+    """A number; YAML 1.1 reads 1e-6 as text, so numeric text is accepted too."""
+    value = cursor.value
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            pass
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
+        raise cursor.error(f"expected a number, got {cursor.value!r}")
+    return float(value)
+
+
+def _positive(cursor) -> float:
+    value = _number(cursor)
+    if not (math.isfinite(value) and value > 0):
+        raise cursor.error(f"must be a positive number of seconds, got {cursor.value!r}")
+    return value
+
+
+# ----------------------------------------------------------------------------
+# running
+# ----------------------------------------------------------------------------
+def run_job(job: Job, out: Path) -> JobResult:
+    """Run one job in its own process and judge it."""
+    folder = output.prepare_dir(job.folder(out))
+    figures_file = folder / f"{job.command}.json"
+    before = _identity(figures_file)
+    start = time.perf_counter()
+    try:
+        done = subprocess.run(job.argv(out), capture_output=True, text=True,
+                              stdin=subprocess.DEVNULL, timeout=job.timeout,
+                              errors="replace")
+        code, stdout, stderr = done.returncode, done.stdout, done.stderr
+    except subprocess.TimeoutExpired as expired:
+        code = None
+        stdout = _text(expired.stdout)
+        stderr = _text(expired.stderr) + f"\nanadyn batch: timed out after {job.timeout:g} s"
+    except OSError as err:
+        code, stdout, stderr = None, "", f"anadyn batch: cannot start: {err}"
+    wall = time.perf_counter() - start
+    result = JobResult(job, code, wall, stdout, stderr)
+    for name, text in (("stdout.txt", stdout), ("stderr.txt", stderr)):
+        output.write_text(folder / name, text)
+    judge(result, figures_file if _identity(figures_file) != before else None)
+    return result
+
+
+def _text(data) -> str:
+    if data is None:
+        return ""
+    return data.decode("utf-8", "replace") if isinstance(data, bytes) else data
+
+
+def _identity(path: Path):
+    try:
+        stat = path.stat()
+    except OSError:
+        return None
+    return (stat.st_ino, stat.st_mtime_ns, stat.st_size)
+
+
+def judge(result: JobResult, figures_file: Path | None) -> None:
+    """Fill in ``failures`` and ``figures`` from the exit code and ``<command>.json``."""
+    job, expect = result.job, result.job.expect
+    if result.exit_code is None:
+        result.failures.append(last_line(result.stderr) or "did not finish")
+    elif expect.exit_code is None and result.exit_code == 0:
+        result.failures.append("exit code 0, expected a failure (non-zero)")
+    elif expect.exit_code is not None and result.exit_code != expect.exit_code:
+        why = last_line(result.stderr)
+        result.failures.append(f"exit code {result.exit_code}, expected {expect.exit_code}"
+                               + (f" ({why})" if why else ""))
+    if not expect.paths:
+        return
+    name = f"{job.command}.json"
+    if figures_file is None:
+        result.failures.append(f"{name} not written, so {', '.join(expect.paths)} "
+                               f"cannot be checked")
+        return
+    try:
+        data = json.loads(figures_file.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        result.failures.append(f"{name} unreadable: {err}")
+        return
+    for path, bound in expect.max:
+        _bound(result, data, name, path, bound, "max")
+    for path, bound in expect.min:
+        _bound(result, data, name, path, bound, "min")
+    for path, wanted in expect.equal:
+        found, value = lookup(data, path)
+        if not found:
+            result.failures.append(f"{path}: missing in {name}")
+            continue
+        result.figures[path] = value
+        same = (value == wanted and isinstance(value, bool) == isinstance(wanted, bool))
+        if not same:
+            result.failures.append(f"{path} = {_show(value)}, expected {_show(wanted)}")
+
+
+def _bound(result: JobResult, data, name: str, path: str, bound: float, kind: str) -> None:
+    found, value = lookup(data, path)
+    if not found:
+        result.failures.append(f"{path}: missing in {name}")
+        return
+    result.figures[path] = value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        result.failures.append(f"{path} = {_show(value)} in {name}, expected a number")
+    elif kind == "max" and not value <= bound:
+        result.failures.append(f"{path} = {_show(value)} > max {bound:g}")
+    elif kind == "min" and not value >= bound:
+        result.failures.append(f"{path} = {_show(value)} < min {bound:g}")
+
+
+def lookup(data, path: str) -> tuple[bool, object]:
+    """(found, value) of a dotted path; a number indexes a list."""
+    value = data
+    for part in path.split("."):
+        if isinstance(value, dict) and part in value:
+            value = value[part]
+        elif isinstance(value, list) and re.fullmatch(r"-?\d+", part) and \
+                -len(value) <= int(part) < len(value):
+            value = value[int(part)]
+        else:
+            return False, None
+    return True, value
+
+
+def _show(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    return json.dumps(value) if not isinstance(value, str) else repr(value)
+
+
+def last_line(text: str) -> str:
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    return lines[-1] if lines else ""
+
+
+def tail(text: str, count: int = TAIL_LINES) -> str:
+    return "\n".join(text.rstrip("\n").splitlines()[-count:])
+
+
+def run(batch: Batch, out: Path, workers: int | None = None, on_start=None,
+        on_done=None) -> BatchResult:
+    """Run every job, ``workers`` at a time (default: all cores).
+
+    ``on_start(job)`` and ``on_done(result, finished, total)`` report progress.
+    """
+    workers = (os.cpu_count() or 1) if workers is None else workers
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ModelError(f"--jobs must be 1 or more, got {workers}")
+    out = output.prepare_dir(out)
+    started = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    start = time.perf_counter()
+    results: dict[int, JobResult] = {}
+
+    def task(index: int, job: Job) -> tuple[int, JobResult]:
+        if on_start is not None:
+            on_start(job)
+        return index, run_job(job, out)
+
+    pool = ThreadPoolExecutor(max_workers=workers)
+    try:
+        futures = [pool.submit(task, i, job) for i, job in enumerate(batch.jobs)]
+        for future in as_completed(futures):
+            index, result = future.result()
+            results[index] = result
+            if on_done is not None:
+                on_done(result, len(results), len(batch.jobs))
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return BatchResult(batch, [results[i] for i in range(len(batch.jobs))], workers,
+                       time.perf_counter() - start, started)
+
+
+def check(result: BatchResult) -> None:
+    """CheckFailed naming each job that missed its expectation."""
+    failed = result.failed
+    if failed:
+        names = "; ".join(f"{r.job.key} ({r.failures[0]})" for r in failed)
+        raise CheckFailed(f"batch: {len(failed)} of {len(result.results)} jobs missed "
+                          f"their expectations: {names}")
+
+
+# ----------------------------------------------------------------------------
+# reports
+# ----------------------------------------------------------------------------
+def job_line(result: JobResult, finished: int, total: int) -> str:
+    """``[3/12] ok   simulate rr  0.9 s`` (the first miss after a colon)."""
+    line = (f"[{finished}/{total}] {result.status:<4} {result.job.command} {result.job.name}"
+            f"  {result.wall:.1f} s")
+    return line + (f": {'; '.join(result.failures)}" if result.failures else "")
+
+
+def figures_text(result: JobResult) -> str:
+    return "; ".join(f"{k}={_show(v)}" for k, v in result.figures.items())
+
+
+def table(result: BatchResult) -> str:
+    header = ["job", "status", "exit", "expected", "wall s", "figures"]
+    body = [[r.job.key, r.status, "-" if r.exit_code is None else str(r.exit_code),
+             r.job.expect.describe_exit(), f"{r.wall:.1f}", figures_text(r)]
+            for r in result.results]
+    widths = [max(len(row[i]) for row in [header, *body]) for i in range(len(header) - 1)]
+    return "\n".join("  ".join(f"{c:<{w}}" for c, w in zip(row, widths)) + "  " + row[-1]
+                     for row in [header, *body])
+
+
+def totals_line(result: BatchResult) -> str:
+    failed = len(result.failed)
+    return (f"batch {result.batch.source}: {len(result.results)} jobs, "
+            f"{len(result.results) - failed} ok, {failed} failed, {result.wall:.1f} s "
+            f"on {result.workers} worker{'s' if result.workers != 1 else ''}")
+
+
+def _job_dict(result: JobResult, out: Path) -> dict:
+    job = result.job
+    return {"name": job.name, "command": job.command, "robot": job.robot,
+            "options": list(job.options), "status": result.status, "ok": result.ok,
+            "exit_code": result.exit_code, "expected_exit_code": job.expect.exit_code,
+            "wall_s": result.wall, "figures": result.figures, "failures": result.failures,
+            "folder": str(job.folder(out)), "argv": job.argv(out)[1:],
+            "stdout_tail": tail(result.stdout), "stderr_tail": tail(result.stderr)}
+
+
+def summary(result: BatchResult, out: Path) -> dict:
+    """``summary.json``."""
+    return {"batch": result.batch.source, "description": result.batch.description,
+            "started": result.started, "wall_s": result.wall, "workers": result.workers,
+            "jobs_total": len(result.results), "jobs_failed": len(result.failed),
+            "passed": not result.failed,
+            "failed": [r.job.key for r in result.failed],
+            "jobs": [_job_dict(r, out) for r in result.results]}
+
+
+def csv_text(result: BatchResult, out: Path) -> str:
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["command", "name", "robot", "status", "exit_code", "expected_exit_code",
+                     "wall_s", "figures", "failures", "folder"])
+    for r in result.results:
+        writer.writerow([r.job.command, r.job.name, r.job.robot, r.status,
+                         "" if r.exit_code is None else r.exit_code,
+                         r.job.expect.describe_exit(), f"{r.wall:.3f}", figures_text(r),
+                         "; ".join(r.failures), str(r.job.folder(out))])
+    return buffer.getvalue()
+
+
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def _xml_text(text: str) -> str:
+    return _NOT_XML.sub("?", text)
+
+
+def junit_text(result: BatchResult) -> str:
+    """One <testsuite>, one <testcase> per job (classname = command, name = job name)."""
+    import xml.etree.ElementTree as ET
+
+    suite = ET.Element("testsuite", {
+        "name": f"anadyn batch {result.batch.source}", "tests": str(len(result.results)),
+        "failures": str(len(result.failed)), "errors": "0", "skipped": "0",
+        "time": f"{result.wall:.3f}", "timestamp": result.started})
+    for r in result.results:
+        case = ET.SubElement(suite, "testcase", {"classname": r.job.command,
+                                                 "name": r.job.name, "time": f"{r.wall:.3f}"})
+        if r.failures:
+            failure = ET.SubElement(case, "failure", {"message": _xml_text(r.failures[0]),
+                                                      "type": "expectation"})
+            failure.text = _xml_text("\n".join(r.failures) + "\n\nstderr:\n"
+                                     + tail(r.stderr))
+        if r.figures:
+            properties = ET.SubElement(case, "properties")
+            for key, value in r.figures.items():
+                ET.SubElement(properties, "property", {"name": key,
+                                                       "value": _xml_text(_show(value))})
+        ET.SubElement(case, "system-out").text = _xml_text(tail(r.stdout))
+        if r.stderr.strip():
+            ET.SubElement(case, "system-err").text = _xml_text(tail(r.stderr))
+    ET.indent(suite)
+    return ET.tostring(suite, encoding="unicode", xml_declaration=True) + "\n"
+
+
+def write(result: BatchResult, out: Path) -> list[Path]:
+    """summary.csv, summary.json and junit.xml in ``out``."""
+    out = output.prepare_dir(out)
+    written = [out / "summary.csv", out / "summary.json", out / "junit.xml"]
+    output.write_text(written[0], csv_text(result, out))
+    output.write_json(written[1], summary(result, out))
+    output.write_text(written[2], junit_text(result))
+    return written
+
+
+class Progress:
+    """A progress line on a terminal, else one plain line per finished job (CI logs)."""
+
+    def __init__(self, stream, live: bool, total: int):
+        import threading
+
+        self.stream, self.live, self.total = stream, live, total
+        self.start, self.failed, self.finished, self.running = time.perf_counter(), 0, 0, 0
+        self.lock = threading.Lock()            # jobs start on worker threads
+
+    @staticmethod
+    def wanted(stream) -> bool:
+        return bool(getattr(stream, "isatty", lambda: False)()) and not os.environ.get("CI")
+
+    def started(self, job: Job) -> None:
+        with self.lock:
+            self.running += 1
+            if self.live:
+                self._draw()
+
+    def done(self, result: JobResult, finished: int, total: int) -> None:
+        with self.lock:
+            self.running -= 1
+            self.finished = finished
+            self.failed += not result.ok
+            if self.live:
+                if not result.ok:          # keep the misses on screen
+                    self.stream.write("\r\033[K" + job_line(result, finished, total) + "\n")
+                self._draw()
+            else:
+                self.stream.write(job_line(result, finished, total) + "\n")
+            self.stream.flush()
+
+    def close(self) -> None:
+        if self.live:
+            self.stream.write("\r\033[K")
+            self.stream.flush()
+
+    def _draw(self) -> None:
+        width = 24
+        filled = int(width * self.finished / max(1, self.total))
+        bar = "#" * filled + "-" * (width - filled)
+        self.stream.write(f"\r\033[K[{bar}] {self.finished}/{self.total} done, "
+                          f"{self.running} running, {self.failed} failed, "
+                          f"{time.perf_counter() - self.start:.0f} s")
+        self.stream.flush()

@@ -1,0 +1,42 @@
+"""anadyn batch: many runs from one YAML file, in parallel, for CI."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from ..cli import app
+
+
+@app.command()
+def batch(
+    config: Path = typer.Argument(..., help="Batch file (YAML) listing the jobs.",
+                                  show_default=False),
+    jobs: int = typer.Option(None, "--jobs", "-j", help="Jobs run at the same time "
+                                                        "[default: all cores]."),
+    out: Path = typer.Option(None, "--out", help="Output folder [default: results/NAME/, "
+                                                 "NAME the batch file's stem]."),
+) -> None:
+    """Run the jobs of CONFIG in parallel processes and judge each against its expectations.
+
+    Shows a progress line on a terminal and one line per finished job
+    otherwise (or when CI is set); writes summary.csv, summary.json and
+    junit.xml; exit 1 naming every job that missed its expectation.
+    """
+    import sys
+
+    from .. import batch as service
+
+    plan = service.load_batch(config)
+    folder = out if out is not None else Path("results") / config.stem
+    progress = service.Progress(sys.stdout, service.Progress.wanted(sys.stdout), len(plan.jobs))
+    try:
+        result = service.run(plan, folder, jobs, on_start=progress.started,
+                             on_done=progress.done)
+    finally:
+        progress.close()
+    written = service.write(result, folder)
+    typer.echo(service.table(result))
+    typer.echo(service.totals_line(result))
+    typer.echo("wrote " + ", ".join(str(p) for p in written))
+    service.check(result)

@@ -1,0 +1,56 @@
+"""anadyn check: stability report along the simulated path."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from ..cli import app
+from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir
+
+
+@app.command()
+def check(
+    robot: Path = RobotArg,
+    rtol: float = typer.Option(None, help="Relative tolerance [default: from the file, "
+                                          "else 1e-10]."),
+    atol: float = typer.Option(None, help="Absolute tolerance [default: from the file, "
+                                          "else 1e-12]."),
+    t_end: float = typer.Option(None, "--t-end", help="Horizon in s [default: from the "
+                                                      "file, else 10]."),
+    dt: float = typer.Option(None, "--dt", help="Output step in s [default: from the file, "
+                                                "else 0.01]."),
+    max_condition: float = typer.Option(1e8, "--max-condition",
+                                        help="Threshold on the mass matrix's condition "
+                                             "number after diagonal scaling."),
+    energy_tol: float = typer.Option(1e-6, "--energy-tol",
+                                     help="Threshold on max |T + V - W - E0| over the "
+                                          "energy scale."),
+    samples: int = typer.Option(200, "--samples", help="Points along the path where the "
+                                                       "Jacobian's eigenvalues are taken."),
+    formulation: Method = FormulationOpt,
+    out: Path = OutOpt,
+    cache: bool = typer.Option(True, help="Reuse derived equations from the cache."),
+) -> None:
+    """Stability report: eigenvalues and stiffness, mass-matrix conditioning, energy balance.
+
+    Exit 1 when the energy balance or the mass matrix's conditioning misses
+    its threshold; stiffness is reported as a warning.  Writes check.csv and
+    check.json.
+    """
+    import time
+
+    from .. import stability as service
+    from ..build import prepare
+
+    start = time.perf_counter()
+    info, compiled = prepare(robot, formulation.value, use_cache=cache)
+    report = service.check(info, compiled, rtol=rtol, atol=atol, t_end=t_end,
+                           output_step=dt, samples=samples, max_condition=max_condition,
+                           energy_tol=energy_tol)
+    written = service.write(report, out_dir(out, info.name))
+    typer.echo(service.text(report))
+    split = ", ".join(f"{k} {v:.3f} s" for k, v in report.timings.items())
+    typer.echo(f"time: {split}; total {time.perf_counter() - start:.3f} s")
+    typer.echo("wrote " + ", ".join(str(p) for p in written))
+    service.raise_if_failed(report)

@@ -1,0 +1,247 @@
+"""`anadyn batch`: the CI batch file, expectations, reports and config errors."""
+import json
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from anadyn_cli import batch
+from anadyn_cli.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+RR = ROOT / "robots" / "rr.yaml"
+
+
+@pytest.fixture(autouse=True)
+def _private_cache(tmp_path, monkeypatch):
+    """The jobs' processes inherit it."""
+    monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("CI", raising=False)
+
+
+def config(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "batch.yaml"
+    path.write_text(text.replace("RR", str(RR)))
+    return path
+
+
+JOB_LINE = re.compile(r"\[(\d+)/(\d+)\] (ok  |FAIL) (\w+) (\S+)  \d+\.\d s(: .*)?\Z")
+
+
+def test_ci_config_covers_every_shipped_robot_with_every_command():
+    plan = batch.load_batch(ROOT / "configs" / "ci.yaml")
+    robots = {str(p.relative_to(ROOT)) for p in (ROOT / "robots").glob("*.yaml")}
+    covered = {(j.command, str(Path(j.robot).resolve().relative_to(ROOT))) for j in plan.jobs
+               if j.expect.exit_code == 0}
+    assert covered == {(c, r) for c in batch.COMMANDS for r in robots}
+    assert all(j.expect.paths for j in plan.jobs if j.expect.exit_code == 0)
+
+
+def test_ci_config_passes(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(ROOT)
+    out = tmp_path / "ci"
+    assert main(["batch", "configs/ci.yaml", "--jobs", "2", "--out", str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    progress = [JOB_LINE.match(line) for line in lines[:11]]
+    assert all(m and m.group(3) == "ok  " for m in progress), lines[:11]
+    assert sorted(int(m.group(1)) for m in progress) == list(range(1, 12))
+    assert re.fullmatch(r"batch configs/ci\.yaml: 11 jobs, 11 ok, 0 failed, [\d.]+ s on 2 "
+                        r"workers", lines[-2])
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["passed"] is True and summary["jobs_failed"] == 0
+    by_key = {f"{j['command']} {j['name']}": j for j in summary["jobs"]}
+    assert by_key["inverse rr"]["figures"]["roundtrip.max_error"] < 1e-6
+    assert by_key["inverse rr-impossible-tolerance"]["exit_code"] == 1
+    suite = ET.parse(out / "junit.xml").getroot()
+    assert suite.tag == "testsuite" and suite.get("tests") == "11"
+    assert suite.get("failures") == "0" and suite.find(".//failure") is None
+    for command in batch.COMMANDS:
+        assert (out / command / "rr" / f"{command}.json").is_file()
+
+
+def test_an_impossible_expectation_fails_the_batch_and_names_the_job(tmp_path, capsys):
+    path = config(tmp_path, """\
+jobs:
+  - command: simulate
+    robot: RR
+    options: {no-plot: true, t-end: 1}
+    expect: {max: {rows: 1000}, equal: {success: true}}
+  - command: simulate
+    robot: RR
+    name: too-few-rows
+    options: [--no-plot, --t-end, 1]
+    expect: {max: {rows: 100}}
+  - command: simulate
+    robot: RR
+    name: no-such-figure
+    options: [--no-plot, --t-end, 1]
+    expect: {max: {roundtrip.max_error: 1}}
+""")
+    out = tmp_path / "out"
+    assert main(["batch", str(path), "--out", str(out)]) == 1
+    captured = capsys.readouterr()
+    assert captured.err == ("anadyn: error: batch: 2 of 3 jobs missed their expectations: "
+                            "simulate too-few-rows (rows = 101 > max 100); "
+                            "simulate no-such-figure (roundtrip.max_error: missing in "
+                            "simulate.json)\n")
+    lines = {m.group(5): m for m in map(JOB_LINE.match, captured.out.splitlines()[:3])}
+    assert lines["rr"].group(3) == "ok  " and lines["rr"].group(6) is None
+    assert lines["too-few-rows"].group(3) == "FAIL"
+    assert lines["too-few-rows"].group(6) == ": rows = 101 > max 100"
+    suite = ET.parse(out / "junit.xml").getroot()
+    assert (suite.get("tests"), suite.get("failures")) == ("3", "2")
+    cases = {c.get("name"): c for c in suite.iter("testcase")}
+    assert {c.get("classname") for c in cases.values()} == {"simulate"}
+    assert cases["rr"].find("failure") is None
+    assert cases["too-few-rows"].find("failure").get("message") == "rows = 101 > max 100"
+    rows = (out / "summary.csv").read_text().splitlines()
+    assert rows[0] == ("command,name,robot,status,exit_code,expected_exit_code,wall_s,"
+                       "figures,failures,folder")
+    assert rows[2].startswith(f"simulate,too-few-rows,{RR},FAIL,0,0,")
+    assert rows[2].endswith(f",rows=101,rows = 101 > max 100,{out}/simulate/too-few-rows")
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["failed"] == ["simulate too-few-rows", "simulate no-such-figure"]
+
+
+def test_exit_codes_must_fail_and_timeouts(tmp_path, capsys):
+    path = config(tmp_path, """\
+jobs:
+  - command: simulate
+    robot: RR
+    name: bad-rtol
+    options: [--rtol, -1]
+    must_fail: 2
+  - command: simulate
+    robot: RR
+    name: passes-but-should-fail
+    options: [--no-plot, --t-end, 0.1]
+    must_fail: true
+  - command: simulate
+    robot: RR
+    name: unexpected-failure
+    options: [--dt, 20]
+  - command: simulate
+    robot: RR
+    name: slow
+    timeout: 0.001
+""")
+    assert main(["batch", str(path), "--out", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    assert err == ("anadyn: error: batch: 3 of 4 jobs missed their expectations: "
+                   "simulate passes-but-should-fail (exit code 0, expected a failure "
+                   "(non-zero)); simulate unexpected-failure (exit code 2, expected 0 "
+                   "(anadyn: error: output step 20 s is longer than t_end 15 s)); "
+                   "simulate slow (anadyn batch: timed out after 0.001 s)\n")
+
+
+def test_a_stale_figures_file_is_not_read(tmp_path, capsys):
+    good = config(tmp_path, """\
+jobs:
+  - {command: simulate, robot: RR, options: [--no-plot, --t-end, 1], expect: {max: {rows: 101}}}
+""")
+    out = str(tmp_path / "out")
+    assert main(["batch", str(good), "--out", out]) == 0
+    bad = config(tmp_path, """\
+jobs:
+  - {command: simulate, robot: RR, options: [--rtol, -1], must_fail: 2, expect: {max: {rows: 101}}}
+""")
+    assert main(["batch", str(bad), "--out", out]) == 1
+    assert capsys.readouterr().err.endswith(
+        "simulate rr (simulate.json not written, so rows cannot be checked)\n")
+    assert (tmp_path / "out" / "simulate" / "rr" / "simulate.json").is_file()   # kept
+
+
+@pytest.mark.parametrize("text, message", [
+    ("jobs: []\n", "1: jobs: expected at least one job"),
+    ("job: []\n", "1: job: unknown key; did you mean 'jobs'? allowed: description, "
+                  "timeout, jobs"),
+    ("jobs:\n  - {command: simulat, robot: RR}\n",
+     "2: jobs[0].command: must be one of simulate, inverse, compare, accuracy, check, "
+     "got 'simulat'"),
+    ("jobs:\n  - command: simulate\n    robot: RR\n    expct: {}\n",
+     "4: jobs[0].expct: unknown key; did you mean 'expect'? allowed: command, robot, name, "
+     "options, expect, must_fail, timeout"),
+    ("jobs:\n  - {command: simulate}\n", "2: jobs[0]: missing required key 'robot'"),
+    ("jobs:\n  - {command: simulate, robot: nowhere.yaml}\n",
+     "2: jobs[0].robot: no such file 'TMP/nowhere.yaml' (robot paths are relative to the "
+     "batch file's folder)"),
+    ("jobs:\n  - {command: simulate, robot: RR, options: [--out, x]}\n",
+     "2: jobs[0].options: --out is set by the batch (OUT/<command>/<name>/); leave it out"),
+    ("jobs:\n  - {command: simulate, robot: RR, options: [[1]]}\n",
+     "2: jobs[0].options[0]: each option is text or a number, e.g. [--dt, 0.05]"),
+    ("jobs:\n  - command: simulate\n    robot: RR\n    expect:\n      max: {rows: lots}\n",
+     "5: jobs[0].expect.max.rows: expected a number, got 'lots'"),
+    ("jobs:\n  - {command: simulate, robot: RR, must_fail: 1, expect: {exit_code: 1}}\n",
+     "2: jobs[0].must_fail: give either must_fail or expect.exit_code, not both"),
+    ("jobs:\n  - {command: simulate, robot: RR, must_fail: 0}\n",
+     "2: jobs[0].must_fail: must be an exit code from 1 to 255 or true (any non-zero code), "
+     "got 0"),
+    ("jobs:\n  - {command: simulate, robot: RR}\n  - {command: simulate, robot: RR}\n",
+     "3: jobs[1]: a second job 'simulate rr'; give one of them a different name"),
+    ("jobs:\n  - {command: simulate, robot: RR, name: a/b}\n",
+     "2: jobs[0].name: a job name is a letter or digit followed by up to 63 letters, "
+     "digits, '_', '.' or '-', got 'a/b'"),
+    ("timeout: -3\njobs:\n  - {command: simulate, robot: RR}\n",
+     "1: timeout: must be a positive number of seconds, got -3"),
+])
+def test_config_mistakes_are_one_line_with_file_line_and_key(tmp_path, capsys, text, message):
+    path = config(tmp_path, text)
+    assert main(["batch", str(path), "--out", str(tmp_path / "out")]) == 2
+    expected = f"anadyn: error: {path}:{message.replace('TMP', str(tmp_path))}\n"
+    assert capsys.readouterr().err == expected
+    assert not (tmp_path / "out").exists()
+
+
+def test_options_and_expectations_are_read(tmp_path):
+    path = config(tmp_path, """\
+timeout: 60
+jobs:
+  - command: accuracy
+    robot: RR
+    options: {no-plot: true, plot: false, repeats: 1, t_end: 5, methods: "auto,RK45"}
+    expect: {max: {rows.0.max_error: 1e-6}, min: {rows_on_grid: 2}, equal: {robot: rr}}
+    timeout: 5
+""")
+    job = batch.load_batch(path).jobs[0]
+    assert job.options == ("--no-plot", "--no-plot", "--repeats", "1", "--t-end", "5",
+                           "--methods", "auto,RK45")
+    assert job.expect == batch.Expectation(0, (("rows.0.max_error", 1e-6),),
+                                           (("rows_on_grid", 2.0),), (("robot", "rr"),))
+    assert job.timeout == 5 and job.name == "rr" and job.robot == str(RR)
+    assert job.argv(Path("o"))[1:] == ["-m", "anadyn_cli", "accuracy", str(RR), *job.options,
+                                       "--out", str(Path("o") / "accuracy" / "rr")]
+
+
+def test_lookup_follows_dotted_paths():
+    data = {"a": {"b": [{"c": 1.5}, {"c": None}]}, "x.y": 1}
+    assert batch.lookup(data, "a.b.0.c") == (True, 1.5)
+    assert batch.lookup(data, "a.b.-1.c") == (True, None)
+    assert batch.lookup(data, "a.b.2.c") == (False, None)
+    assert batch.lookup(data, "a.c") == (False, None)
+
+
+def test_progress_line_on_a_terminal_plain_lines_otherwise(monkeypatch):
+    import io
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    assert batch.Progress.wanted(Terminal()) and not batch.Progress.wanted(io.StringIO())
+    monkeypatch.setenv("CI", "true")
+    assert not batch.Progress.wanted(Terminal())
+    job = batch.Job("simulate", "rr.yaml", "rr", (), batch.Expectation())
+    done = batch.JobResult(job, 0, 0.94)
+    plain = io.StringIO()
+    progress = batch.Progress(plain, False, 12)
+    progress.started(job)
+    progress.done(done, 3, 12)
+    assert plain.getvalue() == "[3/12] ok   simulate rr  0.9 s\n"
+    screen = Terminal()
+    progress = batch.Progress(screen, True, 12)
+    progress.started(job)
+    progress.done(done, 3, 12)
+    progress.close()
+    assert screen.getvalue().count("\r") == 3 and "3/12 done, 0 running, 0 failed" in \
+        screen.getvalue() and "\n" not in screen.getvalue()
