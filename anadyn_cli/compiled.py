@@ -4,10 +4,12 @@ Only NumPy is imported here: a robot whose generated source is cached runs
 without importing SymPy.  The source is anadyn's own output (from
 ``numeric.source``), never text from a robot file.
 
-    rhs(t, x)      -> dx/dt = [dq, M^-1 G]   (a fresh array each call)
+    rhs(t, x)      -> dx/dt = [dq, ddq], M ddq = G   (a fresh array each call)
     jacobian(t, x) -> [[0, I], [M^-1 K]]     (2n x 2n)
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -22,7 +24,7 @@ class CompiledRobot:
         self.coordinates: tuple[str, ...] = namespace["COORDINATES"]
         self.effort_names: tuple[str, ...] = namespace["EFFORTS"]
         self.n = len(self.coordinates)
-        self._dynamics = namespace["dynamics"]
+        self._accelerations = namespace["accelerations"]
         self._jacobian = namespace["dynamics_jacobian"]
         self._efforts = namespace["efforts"]
         self._mfb = namespace["mfb"]
@@ -41,23 +43,20 @@ class CompiledRobot:
             self.failure = (float(t), np.array(x, dtype=float), why)
         return np.full(2 * self.n, np.nan)
 
-    def accelerations(self, t: float, x) -> np.ndarray:
-        """ddq = M^-1 G at one state (np.linalg.LinAlgError if M is singular)."""
-        M, G = self._dynamics(t, *x.tolist())
-        return np.linalg.solve(M, G)
+    def accelerations(self, t: float, x) -> list[float]:
+        """ddq solving M ddq = G at one state (np.linalg.LinAlgError if M is singular)."""
+        return self._accelerations(t, *x.tolist())
 
     def rhs(self, t: float, x: np.ndarray) -> np.ndarray:
         self.rhs_calls += 1
-        n = self.n
-        out = np.empty(2 * n)
-        out[:n] = x[n:]
+        values = x.tolist()
         try:
-            out[n:] = self.accelerations(t, x)
+            out = np.array(values[self.n:] + self._accelerations(t, *values))
         except np.linalg.LinAlgError:
             return self._fail(t, x, "singular mass matrix")
         except (OverflowError, ValueError, ZeroDivisionError) as err:
             return self._fail(t, x, f"cannot evaluate the equations ({err})")
-        if not np.isfinite(out).all():
+        if not math.isfinite(out.sum()):
             return self._fail(t, x, "non-finite state derivative")
         return out
 
@@ -72,9 +71,7 @@ class CompiledRobot:
         J = np.zeros((2 * n, 2 * n))
         J[:n, n:] = np.eye(n)
         try:
-            M, G = self._dynamics(t, *values)
-            ddq = np.linalg.solve(M, G)
-            M, K = self._jacobian(t, *values, *ddq.tolist())
+            M, K = self._jacobian(t, *values, *self._accelerations(t, *values))
             J[n:, :] = np.linalg.solve(M, K)
         except (np.linalg.LinAlgError, OverflowError, ValueError, ZeroDivisionError) as err:
             self._fail(t, x, "singular mass matrix" if isinstance(err, np.linalg.LinAlgError)

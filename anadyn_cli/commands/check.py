@@ -6,7 +6,7 @@ from pathlib import Path
 import typer
 
 from ..cli import app
-from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir
+from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir, time_line
 
 
 @app.command()
@@ -50,7 +50,6 @@ def check(
                            energy_tol=energy_tol)
     written = service.write(report, out_dir(out, info.name))
     typer.echo(service.text(report))
-    split = ", ".join(f"{k} {v:.3f} s" for k, v in report.timings.items())
-    typer.echo(f"time: {split}; total {time.perf_counter() - start:.3f} s")
+    typer.echo(time_line(report.timings, start))
     typer.echo("wrote " + ", ".join(str(p) for p in written))
     service.raise_if_failed(report)

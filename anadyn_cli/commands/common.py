@@ -19,6 +19,15 @@ class Format(str, Enum):
     latex = "latex"
 
 
+def time_line(timings: dict, start: float) -> str:
+    """``time: load 0.081 s, cache miss, ...; total 2.076 s`` (start from perf_counter)."""
+    import time
+
+    split = ", ".join(f"{k} {v:.3f} s" if isinstance(v, float) else f"{k} {v}"
+                      for k, v in timings.items())
+    return f"time: {split}; total {time.perf_counter() - start:.3f} s"
+
+
 def out_dir(out: Path | None, robot_name: str) -> Path:
     return out if out is not None else Path("results") / robot_name
 

@@ -6,7 +6,7 @@ from pathlib import Path
 import typer
 
 from ..cli import app
-from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir
+from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir, time_line
 
 
 @app.command()
@@ -57,8 +57,6 @@ def inverse(
                f"{timings['efforts'] * 1e3:.2f} ms")
     typer.echo(service.table(result))
     typer.echo(service.roundtrip_line(result))
-    split = ", ".join(f"{k} {v:.3f} s" if isinstance(v, float) else f"{k} {v}"
-                      for k, v in result.timings.items())
-    typer.echo(f"time: {split}; total {time.perf_counter() - start:.3f} s")
+    typer.echo(time_line(result.timings, start))
     typer.echo("wrote " + ", ".join(str(p) for p in written))
     service.check(result)

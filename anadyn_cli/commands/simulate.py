@@ -6,7 +6,7 @@ from pathlib import Path
 import typer
 
 from ..cli import app
-from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir
+from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir, time_line
 
 
 @app.command()
@@ -56,9 +56,7 @@ def simulate(
     typer.echo(f"rhs calls {solution.rhs_calls}, jacobian calls {solution.jacobian_calls}, "
                f"steps {solution.steps}, rtol {result.settings.rtol:g}, "
                f"atol {result.settings.atol:g}")
-    split = ", ".join(f"{k} {v:.3f} s" if isinstance(v, float) else f"{k} {v}"
-                      for k, v in result.timings.items())
-    typer.echo(f"time: {split}; total {time.perf_counter() - start:.3f} s"
+    typer.echo(time_line(result.timings, start)
                + ("" if result.estimated_error is None
                   else f"; estimated error {result.estimated_error:.2e}"))
     typer.echo("wrote " + ", ".join(str(p) for p in written))
