@@ -23,18 +23,35 @@ class WriteError(ModelError, OSError):
     still an OSError for callers that skip what they cannot write (the cache)."""
 
 
+def check_dir(out: Path, label: str = "--out") -> None:
+    """Say in one line, before any work, why ``out`` cannot take results: a
+    file, or a folder that cannot be written or created.  Creates nothing."""
+    out = Path(out)
+    try:
+        if out.exists() and not out.is_dir():
+            raise ModelError(f"{label} {out}: is a file, expected a folder")
+        existing = out
+        while not existing.exists() and existing != existing.parent:
+            existing = existing.parent      # the folder that would hold the new ones
+    except OSError as err:                  # e.g. a name too long, a folder we may not see
+        raise ModelError(f"{label} {out}: cannot use it as a folder ({err.strerror})") from None
+    if not existing.is_dir():
+        raise ModelError(f"{label} {out}: cannot create the folder, {existing} is a file")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ModelError(f"{label} {out}: " + ("folder is not writable" if existing == out else
+                                               f"cannot create the folder, {existing} is not "
+                                               "writable"))
+
+
 def prepare_dir(out: Path) -> Path:
     """Create the output folder, or say in one line why it cannot be used."""
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise ModelError(f"--out {out}: is a file, expected a folder")
+    check_dir(out, "output folder")
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
-        raise ModelError(f"--out {out}: cannot create the folder ({err.strerror}); "
-                         "give a folder that can be created or written") from None
-    if not os.access(out, os.W_OK | os.X_OK):
-        raise ModelError(f"--out {out}: folder is not writable")
+        raise ModelError(f"output folder {out}: cannot create it ({err.strerror}); "
+                         "give a folder that can be created or written with --out") from None
     return out
 
 

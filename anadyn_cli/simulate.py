@@ -21,6 +21,8 @@ from .errors import ModelError, NumericalError
 from .robotinfo import RobotInfo, Simulation
 
 DEFAULTS = Simulation(t_end=10.0, output_step=0.01, method="auto", rtol=1e-10, atol=1e-12)
+#: settings -> the command-line options that set them
+OPTIONS = {"t_end": "--t-end", "output_step": "--dt", "rtol": "--rtol", "atol": "--atol"}
 MAX_ROWS = 1_000_000     # output rows; the robot file is held to the same (model.loader)
 
 
@@ -45,13 +47,13 @@ class SimulationResult:
 def resolve(robot: RobotInfo, **overrides) -> Simulation:
     """Settings: command line, then the robot file, then anadyn's defaults."""
     chosen = {k: v for k, v in overrides.items() if v is not None}
+    for key, option in OPTIONS.items():     # the file's values are checked by the loader
+        value = chosen.get(key, 1.0)
+        if not (math.isfinite(value) and value > 0):
+            raise ModelError(f"{option} must be a positive number, got {value:g}")
     settings = replace(DEFAULTS, **{k: v for k, v in robot.simulation.__dict__.items()
                                     if v is not None})
     settings = replace(settings, **chosen)
-    for key in ("t_end", "output_step", "rtol", "atol"):
-        value = getattr(settings, key)
-        if not (math.isfinite(value) and value > 0):
-            raise ModelError(f"{key} must be a positive number, got {value:g}")
     if settings.method not in integrators.METHODS:
         raise ModelError(f"unknown method {settings.method!r}; choose one of "
                          f"{', '.join(integrators.METHODS)}")

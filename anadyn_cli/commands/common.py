@@ -33,4 +33,15 @@ def out_dir(out: Path | None, robot_name: str) -> Path:
 
 
 FormulationOpt = typer.Option(Method.kane, "--formulation", help="Formulation to integrate.")
-OutOpt = typer.Option(None, "--out", help="Output folder [default: results/NAME/].")
+
+
+def _usable_out(out: Path | None) -> Path | None:
+    """--out is checked when the command line is read, before any computation."""
+    if out is not None:
+        from ..output import check_dir
+        check_dir(out)
+    return out
+
+
+OutOpt = typer.Option(None, "--out", help="Output folder [default: results/NAME/].",
+                      callback=_usable_out)

@@ -14,6 +14,7 @@ hangs nor eats memory.
 from __future__ import annotations
 
 import ast
+import cmath
 import datetime
 import difflib
 import math
@@ -109,6 +110,94 @@ def parse(value: object, names: Mapping[str, sp.Expr],
 
 def _shorten(text: str, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def approximate(expr: sp.Expr, values: Mapping[sp.Symbol, object] | None = None) -> complex:
+    """``expr`` in double precision, its symbols taken from ``values`` (nan for
+    a symbol without a value or where a function is undefined, e.g. log(0)).
+
+    The guard to pass before SymPy evaluates a number (``evalf``, or the
+    automatic evaluation ``xreplace`` triggers): SymPy works at a precision
+    that grows with the size of the number, so exp(exp(exp(100))) would take
+    forever.  Raises ExpressionError when any intermediate value overflows.
+    """
+    memo: dict[sp.Symbol, complex] = {}
+
+    def value(node: sp.Expr) -> complex:
+        if node.is_Symbol:
+            if node not in memo:
+                given = values.get(node) if values else None
+                memo[node] = (complex("nan") if given is None else value(given)
+                              if isinstance(given, sp.Basic) else complex(given))
+            return memo[node]
+        if node.is_Number or node.is_NumberSymbol or node is sp.I:
+            if node in (sp.oo, -sp.oo, sp.zoo, sp.nan):
+                return complex("nan")
+            result = complex(node)
+            if cmath.isinf(result):                    # e.g. 10**400
+                raise OverflowError
+            return result
+        args = [value(arg) for arg in node.args]      # every argument, even after a nan
+        if any(not _finite(a) for a in args):
+            return complex("nan")
+        try:
+            if node.is_Add or node.is_Mul:
+                result = args[0]
+                for a in args[1:]:                     # stop at the first overflow
+                    result = result + a if node.is_Add else result * a
+                    if cmath.isinf(result):
+                        raise OverflowError
+            elif node.is_Pow:
+                base, exponent = args
+                result = (base.real ** exponent.real if base.imag == exponent.imag == 0
+                          and base.real >= 0 else base ** exponent)
+            elif node.func in _APPROXIMATE:
+                result = _APPROXIMATE[node.func](*args)
+            else:                                      # a form SymPy made: arguments checked
+                return complex("nan")
+        except (ValueError, ZeroDivisionError):       # undefined here, e.g. log(0), 0**-1
+            return complex("nan")
+        result = complex(result)
+        if cmath.isinf(result):
+            raise OverflowError
+        return result
+
+    try:
+        return value(expr)
+    except OverflowError:
+        if expr.is_Number:
+            raise ExpressionError("number too large (the largest allowed is about "
+                                  "1.8e308)") from None
+        raise ExpressionError(f"{_shorten(str(expr))} overflows in floating point (the "
+                              "largest number allowed is about 1.8e308)") from None
+    except RecursionError:
+        raise ExpressionError("expression nested too deeply") from None
+
+
+def _finite(value: complex) -> bool:
+    return cmath.isfinite(value)
+
+
+def _real(function):
+    """A function of real arguments only (nan for complex ones)."""
+    def call(*args: complex) -> complex:
+        if any(a.imag != 0 for a in args):
+            return complex("nan")
+        return function(*(a.real for a in args))
+    return call
+
+
+def _sign(z: complex) -> complex:
+    return z / abs(z) if z != 0 else 0j
+
+
+#: SymPy function -> the same in double precision (``approximate``)
+_APPROXIMATE = {
+    sp.sin: cmath.sin, sp.cos: cmath.cos, sp.tan: cmath.tan, sp.asin: cmath.asin,
+    sp.acos: cmath.acos, sp.atan: cmath.atan, sp.atan2: _real(math.atan2),
+    sp.sinh: cmath.sinh, sp.cosh: cmath.cosh, sp.tanh: cmath.tanh, sp.exp: cmath.exp,
+    sp.log: cmath.log, sp.Abs: abs, sp.sign: _sign, sp.Min: _real(min), sp.Max: _real(max),
+}
 
 
 class _Builder:
@@ -207,7 +296,11 @@ class _Builder:
         if (arities is None and count < 2) or (arities is not None and count not in arities):
             wanted = "two or more" if arities is None else " or ".join(map(str, arities))
             raise ExpressionError(f"{node.func.id}() takes {wanted} argument(s), got {count}")
-        return function(*(self.build(arg) for arg in node.args))
+        args = [self.build(arg) for arg in node.args]
+        for arg in args:         # SymPy evaluates numbers given to a function: huge ones hang
+            if not arg.is_Number and not arg.free_symbols:
+                approximate(arg)
+        return function(*args)
 
 
 def _bits(value: sp.Rational) -> int:
@@ -232,7 +325,10 @@ def _construct(node: ast.AST) -> str:
              ast.IfExp: "if-expression", ast.List: "a list",
              ast.Tuple: "a comma (a tuple; write decimals with a point, e.g. 1.5)",
              ast.Dict: "a dict", ast.Set: "a set", ast.JoinedStr: "an f-string",
-             ast.NamedExpr: ":=", ast.Starred: "*-unpacking"}
+             ast.NamedExpr: ":=", ast.Starred: "*-unpacking", ast.ListComp: "a comprehension",
+             ast.SetComp: "a comprehension", ast.DictComp: "a comprehension",
+             ast.GeneratorExp: "a comprehension", ast.Await: "await", ast.Yield: "yield",
+             ast.YieldFrom: "yield"}
     if isinstance(node, ast.Attribute):
         return f"attribute access (.{_shorten(node.attr, 30)})"
     for kind, label in names.items():

@@ -253,8 +253,8 @@ class _RobotBuilder:
             name = self.key_name(item, key, "parameter name")
             self.claim(item, name, "a parameter")
             definition = item.expr(self.symbols, self.unavailable(self.symbols))
+            self.check_numeric(item, definition)
             value = definition.xreplace(self.values)
-            self.check_numeric(item, value)
             symbol = sp.Symbol(name, real=True)
             self.symbols[name] = symbol
             self.definitions[name] = definition
@@ -267,6 +267,7 @@ class _RobotBuilder:
     def check_numeric(self, cursor: Cursor, expr: sp.Expr) -> float:
         """The finite real value of a constant expression (ModelError otherwise)."""
         try:
+            expressions.approximate(expr, {**self.values, **self.gain_values})
             value = expr.xreplace(self.values).xreplace(self.gain_values)
             if value.free_symbols:
                 raise cursor.error("must be a number here, got an expression of "
@@ -274,6 +275,8 @@ class _RobotBuilder:
             number = complex(value.evalf())
         except ModelError:
             raise
+        except expressions.ExpressionError as err:      # overflows: not evaluated exactly
+            raise cursor.error(str(err)) from None
         except (RecursionError, MemoryError):
             raise cursor.error("expression nested too deeply") from None
         except (TypeError, ValueError, ArithmeticError):
@@ -484,11 +487,18 @@ class _RobotBuilder:
         return state
 
     def defined_at(self, cursor: Cursor, expr: sp.Expr, state: dict, what: str) -> None:
-        """``expr`` must be a finite real number at ``state`` (the initial state),
-        evaluated as the generated code will: in floating point, term by term
-        (so sqrt(-1)*0 fails as it will in a run)."""
+        """``expr`` (parameters and gains given their values here) must be a
+        finite real number at ``state`` (the initial state), evaluated as the
+        generated code will: in floating point, term by term (so sqrt(-1)*0
+        fails as it will in a run)."""
+        try:         # first in double precision: exact evaluation of a huge number hangs
+            expressions.approximate(expr, {**self.values, **self.gain_values, **state})
+            fine = True
+        except expressions.ExpressionError:
+            fine = False
+        expr = expr.xreplace(self.values).xreplace(self.gain_values) if fine else expr
         used = sorted(expr.free_symbols & set(state), key=str)
-        if _defined(expr, used, [state[s] for s in used]):
+        if fine and _defined(expr, used, [state[s] for s in used]):
             return
         where = ", ".join(f"{s} = {float(state[s]):.6g}" for s in used)
         raise cursor.error(f"{what} is not a finite real number at the initial state "
@@ -505,8 +515,8 @@ class _RobotBuilder:
             cursor = cursors[body.name].child("joint", joint_value)
             if "displacement" in joint_value:
                 cursor = cursor.child("displacement", joint_value["displacement"])
+            self.defined_at(cursor, joint.displacement, state, "the displacement")
             displacement = joint.displacement.xreplace(self.values)
-            self.defined_at(cursor, displacement, state, "the displacement")
             for symbol in sorted(displacement.free_symbols & set(self.q.values()), key=str):
                 self.defined_at(cursor, sp.diff(displacement, symbol), state,
                                 f"its rate d/d{symbol}")
@@ -588,8 +598,7 @@ class _RobotBuilder:
                 raise item.error(f"law for unknown actuator; {hint}actuators: "
                                  f"{', '.join(actuator_names) or 'none'}")
             laws[key] = item.expr(names, self.unavailable(names))
-            numeric = laws[key].xreplace(self.values).xreplace(self.gain_values)
-            self.defined_at(item, numeric, state, "the law")
+            self.defined_at(item, laws[key], state, "the law")
         missing = [a for a in actuator_names if a not in laws]
         if missing:
             raise laws_cursor.error(f"no law for actuator(s) {', '.join(missing)}; "
@@ -600,8 +609,9 @@ class _RobotBuilder:
         fields = cursor.mapping(("kind", "duration", "from", "to", "expressions"),
                                 required=("kind", "duration"))
         kind = fields["kind"].choice(TRAJECTORY_KINDS)
-        duration = self.constant(fields["duration"]).xreplace(self.values)
+        duration = self.constant(fields["duration"])
         T = self.positive(fields["duration"], duration, "a duration in s")
+        duration = duration.xreplace(self.values)
         ends = {}
         for key in ("from", "to"):
             ends[key] = {}
@@ -611,9 +621,9 @@ class _RobotBuilder:
                                             "trajectories; 'expression' takes 'expressions'")
                 for name, item in fields[key].mapping().items():
                     self.known_coordinate(item, name)
-                    value = self.constant(item).xreplace(self.values)
+                    value = self.constant(item)
                     self.check_numeric(item, value)
-                    ends[key][name] = value
+                    ends[key][name] = value.xreplace(self.values)
         expressions_ = {}
         if kind == "expression":
             if "expressions" not in fields:
@@ -622,16 +632,18 @@ class _RobotBuilder:
             names = {**self.symbols, "t": t}
             for name, item in fields["expressions"].mapping().items():
                 self.known_coordinate(item, name)
-                expressions_[name] = item.expr(names, self.unavailable(names)
-                                               ).xreplace(self.values)
+                expression = item.expr(names, self.unavailable(names))
                 for moment in (sp.Integer(0), sp.Float(T)):
-                    try:
-                        value = complex(expressions_[name].xreplace({t: moment}).evalf())
+                    try:   # in double precision first: exact evaluation of a huge number hangs
+                        expressions.approximate(expression, {**self.values, t: moment})
+                        value = complex(expression.xreplace(self.values).xreplace({t: moment})
+                                        .evalf())
                     except (TypeError, ValueError, ArithmeticError, RecursionError):
                         value = complex("nan")
                     if value.imag != 0 or not math.isfinite(value.real):
                         raise item.error(f"not a finite real number at t = {float(moment):g} "
                                          f"s; q(t) must be defined for 0 <= t <= {T:g}")
+                expressions_[name] = expression.xreplace(self.values)
         elif "expressions" in fields:
             raise fields["expressions"].error("'expressions' belongs to kind 'expression'")
         elif "to" not in fields:

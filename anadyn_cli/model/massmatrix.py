@@ -23,6 +23,7 @@ from collections.abc import Sequence
 import numpy as np
 import sympy as sp
 
+from .expressions import approximate
 from .robot import GROUND, Robot
 
 #: M is taken as singular when, scaled to a unit diagonal, its smallest
@@ -34,7 +35,8 @@ RANDOM_STATES = 2
 
 
 def _number(expr: sp.Expr, values: dict) -> float:
-    value = complex(sp.sympify(expr).xreplace(values).evalf())
+    approximate(expr, values)        # ExpressionError (a ValueError) where it overflows
+    value = complex(expr.xreplace(values).evalf())
     if value.imag != 0 or not math.isfinite(value.real):
         raise ValueError(f"not a finite real number: {expr}")
     return value.real

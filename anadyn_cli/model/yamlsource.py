@@ -20,6 +20,19 @@ MAX_BYTES = 256 * 1024
 #: tags a plain YAML value resolves to; any other (explicit) tag is refused
 PLAIN_TAGS = frozenset(f"tag:yaml.org,2002:{name}" for name in
                        ("str", "int", "float", "bool", "null", "map", "seq", "timestamp"))
+ALIAS_TAG = "!anadyn/alias"     # an alias (*name), kept where it is written
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that composes each alias as a node of its own at the place it
+    is used (never the anchored node again), so that refusing it names the
+    right line, and an alias bomb is refused at its first alias."""
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.AliasEvent):
+            event = self.get_event()
+            return yaml.ScalarNode(ALIAS_TAG, event.anchor, event.start_mark, event.end_mark)
+        return super().compose_node(parent, index)
 
 
 def read_text(path: str | Path) -> tuple[str, str]:
@@ -58,7 +71,7 @@ def load(text: str, source: str) -> tuple[object, dict[str, int]]:
         raise ModelError(f"text longer than {MAX_BYTES} bytes", source=source)
     loader = None
     try:
-        loader = yaml.SafeLoader(text)            # checks the characters first
+        loader = _Loader(text)                    # checks the characters first
         node = loader.get_single_node()
         if node is None or (node.tag == "tag:yaml.org,2002:null" and not node.value.strip()
                             and node.value != "~" and not node.style):
@@ -89,7 +102,7 @@ class _Walker:
         self.loader, self.lines, self.source, self.seen = loader, lines, source, set()
 
     def walk(self, node: yaml.Node, path: str) -> object:
-        if id(node) in self.seen:
+        if node.tag == ALIAS_TAG or id(node) in self.seen:
             raise ModelError("YAML aliases (*name) are not supported; write the value out",
                              source=self.source, path=path or None,
                              line=node.start_mark.line + 1)
@@ -103,6 +116,8 @@ class _Walker:
         if isinstance(node, yaml.MappingNode):
             result: dict[str, object] = {}
             for key_node, value_node in node.value:
+                if key_node.tag == ALIAS_TAG:
+                    self.walk(key_node, path)         # refused, naming its line
                 if key_node.tag == "tag:yaml.org,2002:merge":
                     raise ModelError("YAML merge keys (<<) are not supported",
                                      source=self.source, path=path or None, line=key_node.start_mark.line + 1)
