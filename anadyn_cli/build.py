@@ -16,8 +16,9 @@ from .robotinfo import RobotInfo
 
 
 def compile_robot(robot, formulation: str = "kane", timings: dict | None = None,
-                  use_cache: bool = True) -> CompiledRobot:
-    """The numeric functions of ``robot``'s equations by ``formulation``."""
+                  use_cache: bool = True, eom=None) -> CompiledRobot:
+    """The numeric functions of ``robot``'s equations by ``formulation``
+    (``eom``: those equations, when the caller has derived them already)."""
     timings = {} if timings is None else timings
     if use_cache:
         hit = _cached(robot.digest, formulation, robot.source)
@@ -28,9 +29,10 @@ def compile_robot(robot, formulation: str = "kane", timings: dict | None = None,
     from . import numeric
     from .formulations import derive
 
-    start = time.perf_counter()
-    eom = derive(robot, formulation)
-    timings["derive"] = time.perf_counter() - start
+    if eom is None:
+        start = time.perf_counter()
+        eom = derive(robot, formulation)
+        timings["derive"] = time.perf_counter() - start
     start = time.perf_counter()
     code = numeric.source(robot, eom)
     compiled = CompiledRobot(code)

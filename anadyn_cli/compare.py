@@ -349,7 +349,7 @@ def compare_robot(robot, samples: int = SAMPLES, seed: int = SEED, rtol: float =
     symbolic = symbolic_check(eoms["kane"], eoms["lagrange"], symbolic_terms, seed=seed)
     timings["symbolic"] = symbolic.seconds
     start = time.perf_counter()
-    compiled = {f: compile_robot(robot, f, {}, use_cache=use_cache) for f in ("kane", "lagrange")}
+    compiled = {f: compile_robot(robot, f, {}, use_cache=use_cache, eom=eoms[f]) for f in eoms}
     timings["compile"] = time.perf_counter() - start
     info = RobotInfo.from_robot(robot)
     start = time.perf_counter()
