@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from . import output
-from .errors import CheckFailed, ModelError, NumericalError
+from .errors import CheckFailed, ModelError, NumericalError, positive
 
 SAMPLES = 200
 SEED = 0
@@ -328,12 +328,6 @@ def trajectory_check(robot, kane, lagrange, tolerance: float = TRAJECTORY_TOL,
 # ----------------------------------------------------------------------------
 # the service
 # ----------------------------------------------------------------------------
-def _positive(option: str, value: float) -> float:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        raise ModelError(f"{option} must be a positive number, got {value}")
-    return value
-
-
 def compare_robot(robot, samples: int = SAMPLES, seed: int = SEED, rtol: float = RTOL,
                   trajectory_tol: float = TRAJECTORY_TOL, symbolic_terms: int = SYMBOLIC_TERMS,
                   t_end: float | None = None, use_cache: bool = True) -> RobotComparison:
@@ -371,10 +365,10 @@ def compare(robots, samples: int = SAMPLES, seed: int = SEED, rtol: float = RTOL
         raise ModelError(f"--samples must be a positive whole number, got {samples}")
     if symbolic_terms < 0:
         raise ModelError(f"--symbolic-terms must be 0 or more, got {symbolic_terms}")
-    _positive("--tol", rtol)
-    _positive("--trajectory-tol", trajectory_tol)
+    positive("--tol", rtol)
+    positive("--trajectory-tol", trajectory_tol)
     if t_end is not None:
-        _positive("--t-end", t_end)
+        positive("--t-end", t_end)
     start = time.perf_counter()
     done = [compare_robot(r, samples, seed, rtol, trajectory_tol, symbolic_terms, t_end,
                           use_cache) for r in robots]

@@ -6,6 +6,8 @@
 """
 from __future__ import annotations
 
+import math
+
 
 class AnadynError(Exception):
     """Base class: ``str(err)`` is the one line shown to the user."""
@@ -42,3 +44,11 @@ class NumericalError(AnadynError):
     """The numbers failed: non-finite state, singular mass matrix, step collapse."""
 
     exit_code = 3
+
+
+def positive(option: str, value: float) -> float:
+    """``value`` of a command-line ``option`` if it is a finite number > 0, else ModelError."""
+    value = float(value)
+    if not (math.isfinite(value) and value > 0):
+        raise ModelError(f"{option} must be a positive number, got {value:g}")
+    return value

@@ -31,7 +31,7 @@ import numpy as np
 
 from . import output
 from .compiled import CompiledRobot
-from .errors import CheckFailed, ModelError, NumericalError
+from .errors import CheckFailed, ModelError, NumericalError, positive
 from .robotinfo import RobotInfo
 
 DEFAULT_STEP = 0.01          # s, output grid (else the file's simulation.output_step)
@@ -137,11 +137,11 @@ def inverse(robot, formulation: str = "kane", step: float | None = None,
     timings = {} if timings is None else timings
     if robot.trajectory is None:
         raise trajectory.missing(robot)
-    step = _positive("--dt", step if step is not None
+    step = positive("--dt", step if step is not None
                      else robot.simulation.output_step or DEFAULT_STEP)
-    tolerance = _positive("--roundtrip-tol", tolerance)
+    tolerance = positive("--roundtrip-tol", tolerance)
     if segment is not None:
-        _positive("--roundtrip-segment", segment)
+        positive("--roundtrip-segment", segment)
     if compiled is None:
         compiled = compile_robot(robot, formulation, timings, use_cache)
     info = RobotInfo.from_robot(robot)
@@ -250,7 +250,7 @@ def round_trip(result: InverseResult, tolerance: float = DEFAULT_TOLERANCE,
     if segment is None:
         count = max(1, math.ceil(rate * (t[-1] - t[0]) / math.log(AMPLIFICATION) - 1e-9))
     else:
-        count = max(1, math.ceil((t[-1] - t[0]) / _positive("--roundtrip-segment", segment)
+        count = max(1, math.ceil((t[-1] - t[0]) / positive("--roundtrip-segment", segment)
                                  - 1e-9))
     rows = segment_rows(t, count)
     calls = [0]
@@ -307,13 +307,6 @@ def check(result: InverseResult) -> None:
 
 
 # -- checks ------------------------------------------------------------------------
-def _positive(option: str, value: float) -> float:
-    value = float(value)
-    if not (math.isfinite(value) and value > 0):
-        raise ModelError(f"{option} must be a positive number, got {value:g}")
-    return value
-
-
 NEEDS = "inverse dynamics needs one independent actuator per coordinate (B square and non-singular)"
 
 

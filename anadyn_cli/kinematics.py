@@ -27,7 +27,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from .model.robot import GROUND, Body, Robot
+from .model.names import GROUND
+from .model.robot import Body, Robot
 
 Matrix = sp.ImmutableMatrix
 

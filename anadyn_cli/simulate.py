@@ -17,7 +17,7 @@ import numpy as np
 from . import integrators, output
 from .build import compile_robot
 from .compiled import CompiledRobot
-from .errors import ModelError, NumericalError
+from .errors import ModelError, NumericalError, positive
 from .robotinfo import RobotInfo, Simulation
 
 DEFAULTS = Simulation(t_end=10.0, output_step=0.01, method="auto", rtol=1e-10, atol=1e-12)
@@ -48,9 +48,8 @@ def resolve(robot: RobotInfo, **overrides) -> Simulation:
     """Settings: command line, then the robot file, then anadyn's defaults."""
     chosen = {k: v for k, v in overrides.items() if v is not None}
     for key, option in OPTIONS.items():     # the file's values are checked by the loader
-        value = chosen.get(key, 1.0)
-        if not (math.isfinite(value) and value > 0):
-            raise ModelError(f"{option} must be a positive number, got {value:g}")
+        if key in chosen:
+            positive(option, chosen[key])
     settings = replace(DEFAULTS, **{k: v for k, v in robot.simulation.__dict__.items()
                                     if v is not None})
     settings = replace(settings, **chosen)

@@ -53,7 +53,7 @@ import numpy as np
 from . import integrators, output
 from .accuracy import run
 from .compiled import CompiledRobot
-from .errors import CheckFailed, ModelError, NumericalError
+from .errors import CheckFailed, ModelError, NumericalError, positive
 from .robotinfo import RobotInfo
 from .simulate import initial_state, output_grid, resolve
 
@@ -269,9 +269,8 @@ def check(robot: RobotInfo, compiled: CompiledRobot, rtol: float | None = None,
           max_condition: float = MAX_CONDITION, energy_tol: float = ENERGY_TOL,
           probe_calls: int = PROBE_CALLS) -> StabilityReport:
     """Simulate ``robot`` and examine the path; see the module docstring."""
-    for name, value in (("--max-condition", max_condition), ("--energy-tol", energy_tol)):
-        if not (math.isfinite(value) and value > 0):
-            raise ModelError(f"{name} must be a positive number, got {value:g}")
+    positive("--max-condition", max_condition)
+    positive("--energy-tol", energy_tol)
     if samples < 1 or probe_calls < 100:
         raise ModelError("--samples must be at least 1 and --probe-calls at least 100")
     settings = resolve(robot, rtol=rtol, atol=atol, t_end=t_end, output_step=output_step)

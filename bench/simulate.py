@@ -253,7 +253,7 @@ def seed_run(name, png):
     """The whole seed-style pipeline as one standalone process (end-to-end case (a))."""
     start = time.perf_counter()
     import matplotlib
-    import numpy as np
+    import numpy as np  # noqa: F401  (timed with the other imports)
     import scipy.integrate  # noqa: F401
     import sympy  # noqa: F401
     matplotlib.use("Agg")

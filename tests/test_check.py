@@ -46,7 +46,7 @@ def test_stiff_scenes_are_called_stiff_and_benign_ones_not(capsys, tmp_path, pat
     assert any(line.startswith(f"ok   {energy}: max |T + V") for line in out)
     assert any(line.startswith("ok   mass matrix conditioning: scaled condition number")
                for line in out)
-    assert (f"warning: stiff: explicit methods (RK45, RK23, DOP853) are stability-limited"
+    assert ("warning: stiff: explicit methods (RK45, RK23, DOP853) are stability-limited"
             in "\n".join(out)) == stiff
     summary = json.loads((tmp_path / "check.json").read_text())
     assert summary["stiff"] is stiff and summary["passed"] is True

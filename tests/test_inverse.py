@@ -16,7 +16,6 @@ import sympy as sp
 from sympy.physics import mechanics as me
 
 from anadyn_cli import robot_from_text
-from anadyn_cli.build import compile_robot
 from anadyn_cli.cli import main
 from anadyn_cli.inverse import InverseDynamics, inverse
 from anadyn_cli.trajectory import motion

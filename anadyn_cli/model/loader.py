@@ -31,8 +31,8 @@ import sympy as sp
 from ..errors import ModelError
 from . import expressions
 from . import massmatrix
-from .names import IDENTIFIER, RESERVED_NAMES, default_name
-from .robot import (GROUND, JOINT_TYPES, Actuator, Body, Controller, Coordinate, Joint,
+from .names import GROUND, IDENTIFIER, RESERVED_NAMES, default_name
+from .robot import (JOINT_TYPES, Actuator, Body, Controller, Coordinate, Joint,
                     Robot, Simulation, Trajectory, frozen_map)
 from .yamlsource import load, read_text
 

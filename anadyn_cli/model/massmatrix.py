@@ -24,7 +24,8 @@ import numpy as np
 import sympy as sp
 
 from .expressions import approximate
-from .robot import GROUND, Robot
+from .names import GROUND
+from .robot import Robot
 
 #: M is taken as singular when, scaled to a unit diagonal, its smallest
 #: eigenvalue is below SINGULAR, or when a diagonal entry is below ZERO times

@@ -13,7 +13,6 @@ from typing import Mapping
 import sympy as sp
 
 from ..robotinfo import Simulation
-from .names import GROUND
 
 Vector = tuple[sp.Expr, sp.Expr, sp.Expr]
 JOINT_TYPES = ("revolute", "prismatic", "fixed")
