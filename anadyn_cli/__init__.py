@@ -13,8 +13,8 @@ from .errors import AnadynError, CheckFailed, ModelError, NumericalError
 
 __version__ = "0.1.0"
 
-_LAZY = {"load_robot": ".model", "robot_from_text": ".model", "derive": ".formulations",
-         "EquationsOfMotion": ".eom"}
+_LAZY = {"load_robot": ".model", "robot_from_text": ".model", "derive": ".symbolic.formulations",
+         "EquationsOfMotion": ".symbolic.eom"}
 __all__ = [*_LAZY, "AnadynError", "ModelError", "CheckFailed", "NumericalError", "__version__"]
 
 

@@ -26,7 +26,13 @@ def _group() -> None:
 
 
 def _register_commands() -> None:
-    from . import commands  # noqa: F401  (each module adds its command to ``app``)
+    """Add every command of ``commands`` to ``app`` (once)."""
+    if app.registered_commands:
+        return
+    from .commands import COMMANDS
+
+    for command in COMMANDS:
+        app.command()(command)
 
 
 def main(argv: list[str] | None = None) -> int:

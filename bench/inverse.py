@@ -30,9 +30,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from anadyn_cli import load_robot                      # noqa: E402
-from anadyn_cli.build import compile_robot             # noqa: E402
-from anadyn_cli.inverse import InverseDynamics         # noqa: E402
-from anadyn_cli.trajectory import motion               # noqa: E402
+from anadyn_cli.numeric.build import compile_robot             # noqa: E402
+from anadyn_cli.services.inverse import InverseDynamics         # noqa: E402
+from anadyn_cli.numeric.trajectory import motion               # noqa: E402
 
 
 def best_of(repeats: int, run) -> tuple[float, object]:

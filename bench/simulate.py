@@ -292,8 +292,8 @@ def min_time(fn, repeats):
 
 
 def anadyn_setup(name):
-    from anadyn_cli import build
-    from anadyn_cli import simulate as service
+    from anadyn_cli.numeric import build
+    from anadyn_cli.services import simulate as service
 
     info, compiled = build.prepare(ROOT / "robots" / f"{name}.yaml", "kane", use_cache=False)
     settings = service.resolve(info)
@@ -323,8 +323,8 @@ def bench_robot(name, repeats):
     import numpy as np
     from scipy.integrate import solve_ivp
 
-    from anadyn_cli import integrators
-    from anadyn_cli import simulate as service
+    from anadyn_cli.numeric import integrators
+    from anadyn_cli.services import simulate as service
 
     info, compiled, settings, grid, x0 = anadyn_setup(name)
     n = compiled.n

@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from anadyn_cli import accuracy, simulate
-from anadyn_cli.build import prepare
+from anadyn_cli.services import accuracy
+from anadyn_cli.services import simulate
+from anadyn_cli.numeric.build import prepare
 from anadyn_cli.cli import main
 
 COLUMNS = ["method", "ran", "rtol", "atol", "status", "max_error", "final_error", "wall_s",

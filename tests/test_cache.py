@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from anadyn_cli import cache
+from anadyn_cli.numeric import cache
 from anadyn_cli.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -189,8 +189,8 @@ def test_same_text_under_another_file_name_keeps_its_own_name(cache_dir, tmp_pat
 
 _RUN = """\
 import sys
-import anadyn_cli.cache
-anadyn_cli.cache.code_fingerprint = lambda: "test"   # others may be editing anadyn meanwhile
+import anadyn_cli.numeric.cache
+anadyn_cli.numeric.cache.code_fingerprint = lambda: "test"   # others may be editing anadyn meanwhile
 from anadyn_cli.cli import main
 code = main(["simulate", {robot!r}, "--out", {out!r}, "--t-end", "1", "--no-plot"])
 print("sympy imported:", "sympy" in sys.modules)

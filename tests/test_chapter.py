@@ -3,9 +3,9 @@ import pytest
 import sympy as sp
 
 from anadyn_cli import derive, load_robot
-from anadyn_cli.canonical import canonical
-from anadyn_cli.formulations import lagrange
-from anadyn_cli import kinematics
+from anadyn_cli.symbolic.canonical import canonical
+from anadyn_cli.symbolic.formulations import lagrange
+from anadyn_cli.symbolic import kinematics
 
 METHODS = ["kane", "lagrange"]
 S = {name: sp.Symbol(name, real=True) for name in

@@ -5,8 +5,8 @@ import re
 import numpy as np
 import pytest
 
-from anadyn_cli import stability
-from anadyn_cli.build import prepare
+from anadyn_cli.services import check as stability
+from anadyn_cli.numeric.build import prepare
 from anadyn_cli.cli import main
 
 STIFF = "stiffness: stiff (explicit methods are stability-limited)"

@@ -13,12 +13,13 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from anadyn_cli import formulations, robot_from_text
-from anadyn_cli.build import compile_robot
+from anadyn_cli import robot_from_text
+from anadyn_cli.symbolic import formulations
+from anadyn_cli.numeric.build import compile_robot
 from anadyn_cli.cli import main
-from anadyn_cli.compare import symbolic_check, trajectory_check
-from anadyn_cli.eom import EquationsOfMotion
-from anadyn_cli.formulations import derive
+from anadyn_cli.services.compare import symbolic_check, trajectory_check
+from anadyn_cli.symbolic.eom import EquationsOfMotion
+from anadyn_cli.symbolic.formulations import derive
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
@@ -155,8 +156,8 @@ def test_bad_arguments_are_one_line_and_exit_2(tmp_path, monkeypatch, capsys):
 
 
 def test_samples_cover_a_range_around_the_start():
-    from anadyn_cli.compare import sample_states
-    from anadyn_cli.robotinfo import RobotInfo
+    from anadyn_cli.services.compare import sample_states
+    from anadyn_cli.model.info import RobotInfo
 
     robot = robot_from_text((ROOT / "robots" / "rrt.yaml").read_text(), "rrt.yaml")
     compiled = compile_robot(robot, "kane")

@@ -19,8 +19,9 @@ import math
 import numpy as np
 import pytest
 
-from anadyn_cli import accuracy, simulate
-from anadyn_cli.build import prepare
+from anadyn_cli.services import accuracy
+from anadyn_cli.services import simulate
+from anadyn_cli.numeric.build import prepare
 
 # file, test horizon (None: the file's), rtol, RHS-call budget [measured calls]
 SCENES = [

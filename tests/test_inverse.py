@@ -17,8 +17,8 @@ from sympy.physics import mechanics as me
 
 from anadyn_cli import robot_from_text
 from anadyn_cli.cli import main
-from anadyn_cli.inverse import InverseDynamics, inverse
-from anadyn_cli.trajectory import motion
+from anadyn_cli.services.inverse import InverseDynamics, inverse
+from anadyn_cli.numeric.trajectory import motion
 
 ROOT = Path(__file__).resolve().parents[1]
 RR_PATH, RRT_PATH = str(ROOT / "robots" / "rr.yaml"), str(ROOT / "robots" / "rrt.yaml")

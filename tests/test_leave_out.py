@@ -3,8 +3,8 @@ import pytest
 import sympy as sp
 
 from anadyn_cli import derive, load_robot, robot_from_text
-from anadyn_cli import kinematics
-from anadyn_cli.canonical import canonical
+from anadyn_cli.symbolic import kinematics
+from anadyn_cli.symbolic.canonical import canonical
 
 RR = open("robots/rr.yaml").read()
 METHODS = ["kane", "lagrange"]

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from anadyn_cli import output
+from anadyn_cli.output import files as output
 from anadyn_cli.cli import main
 from anadyn_cli.errors import ModelError
 

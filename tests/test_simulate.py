@@ -36,8 +36,8 @@ from scipy.interpolate import CubicHermiteSpline
 from scipy.special import ellipk
 
 from anadyn_cli import load_robot, robot_from_text
-from anadyn_cli import simulate as service
-from anadyn_cli.build import compile_robot
+from anadyn_cli.services import simulate as service
+from anadyn_cli.numeric.build import compile_robot
 from anadyn_cli.cli import main
 
 from mechanics_oracle import oracle_equations
@@ -534,7 +534,8 @@ def test_generated_solver_matches_a_dense_solve(monkeypatch, unrolled_max):
     for random robots of 2 to 6 coordinates at random states and efforts."""
     import sympy as sp
 
-    from anadyn_cli import codegen, derive, robot_from_text
+    from anadyn_cli import derive, robot_from_text
+    from anadyn_cli.numeric import codegen
     from random_robots import random_robot_yaml
 
     monkeypatch.setattr(codegen, "UNROLLED_MAX", unrolled_max)

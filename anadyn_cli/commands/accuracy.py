@@ -5,11 +5,9 @@ from pathlib import Path
 
 import typer
 
-from ..cli import app
 from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir
 
 
-@app.command()
 def accuracy(
     robot: Path = RobotArg,
     methods: str = typer.Option(None, "--methods", help="Comma-separated methods "
@@ -40,8 +38,8 @@ def accuracy(
     """
     import time
 
-    from .. import accuracy as service
-    from ..build import prepare
+    from ..services import accuracy as service
+    from ..numeric.build import prepare
 
     start = time.perf_counter()
     method_list = service.parse_methods(methods)

@@ -5,10 +5,8 @@ from pathlib import Path
 
 import typer
 
-from ..cli import app
 
 
-@app.command()
 def batch(
     config: Path = typer.Argument(..., help="Batch file (YAML) listing the jobs.",
                                   show_default=False),
@@ -25,7 +23,7 @@ def batch(
     """
     import sys
 
-    from .. import batch as service
+    from ..services import batch as service
 
     plan = service.load_batch(config)
     folder = out if out is not None else Path("results") / config.stem

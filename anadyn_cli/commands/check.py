@@ -5,11 +5,9 @@ from pathlib import Path
 
 import typer
 
-from ..cli import app
 from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir, time_line
 
 
-@app.command()
 def check(
     robot: Path = RobotArg,
     rtol: float = typer.Option(None, help="Relative tolerance [default: from the file, "
@@ -40,8 +38,8 @@ def check(
     """
     import time
 
-    from .. import stability as service
-    from ..build import prepare
+    from ..services import check as service
+    from ..numeric.build import prepare
 
     start = time.perf_counter()
     info, compiled = prepare(robot, formulation.value, use_cache=cache)

@@ -38,7 +38,7 @@ FormulationOpt = typer.Option(Method.kane, "--formulation", help="Formulation to
 def _usable_out(out: Path | None) -> Path | None:
     """--out is checked when the command line is read, before any computation."""
     if out is not None:
-        from ..output import check_dir
+        from ..output.files import check_dir
         check_dir(out)
     return out
 

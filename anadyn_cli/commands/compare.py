@@ -6,10 +6,8 @@ from typing import List, Optional
 
 import typer
 
-from ..cli import app
 
 
-@app.command()
 def compare(
     robots: Optional[List[Path]] = typer.Argument(
         None, help="Robot descriptions (YAML) [default: every robots/*.yaml].",
@@ -37,7 +35,7 @@ def compare(
     """
     import time
 
-    from .. import compare as service
+    from ..services import compare as service
     from ..model import load_robot
 
     start = time.perf_counter()

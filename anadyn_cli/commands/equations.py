@@ -5,11 +5,9 @@ from pathlib import Path
 
 import typer
 
-from ..cli import app
 from .common import Format, Method, RobotArg
 
 
-@app.command()
 def equations(
     robot: Path = RobotArg,
     method: Method = typer.Option(Method.kane, help="Formulation."),
@@ -19,8 +17,8 @@ def equations(
                                               "coordinate."),
 ) -> None:
     """Print the equations of motion, M(q) ddq = F(q, dq) + B(q) tau."""
-    from ..equations import render
-    from ..formulations import derive
+    from ..symbolic.render import render
+    from ..symbolic.formulations import derive
     from ..model import load_robot
 
     eom = derive(load_robot(robot), method.value, symbolic=symbolic)

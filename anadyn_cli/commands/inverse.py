@@ -5,11 +5,9 @@ from pathlib import Path
 
 import typer
 
-from ..cli import app
 from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir, time_line
 
 
-@app.command()
 def inverse(
     robot: Path = RobotArg,
     formulation: Method = FormulationOpt,
@@ -37,9 +35,9 @@ def inverse(
     """
     import time
 
-    from .. import inverse as service
+    from ..services import inverse as service
     from ..model import load_robot
-    from ..trajectory import missing
+    from ..numeric.trajectory import missing
 
     start = time.perf_counter()
     timings: dict = {}

@@ -5,11 +5,9 @@ from pathlib import Path
 
 import typer
 
-from ..cli import app
 from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir, time_line
 
 
-@app.command()
 def simulate(
     robot: Path = RobotArg,
     formulation: Method = FormulationOpt,
@@ -32,8 +30,8 @@ def simulate(
     """Direct dynamics under the robot's feedback laws: simulate.csv and simulate.png."""
     import time
 
-    from .. import simulate as service
-    from ..build import prepare
+    from ..services import simulate as service
+    from ..numeric.build import prepare
 
     start = time.perf_counter()
     timings: dict = {}
@@ -42,7 +40,7 @@ def simulate(
                               method=method, rtol=rtol, atol=atol, t_end=t_end,
                               output_step=dt)
     if estimate and result.solution.success:
-        from ..accuracy import estimate_error
+        from ..services.accuracy import estimate_error
         moment = time.perf_counter()
         result.estimated_error = estimate_error(result, compiled)
         result.timings["estimate"] = time.perf_counter() - moment

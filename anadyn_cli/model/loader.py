@@ -32,8 +32,7 @@ from ..errors import ModelError
 from . import expressions
 from . import massmatrix
 from .names import GROUND, IDENTIFIER, RESERVED_NAMES, default_name
-from .robot import (JOINT_TYPES, Actuator, Body, Controller, Coordinate, Joint,
-                    Robot, Simulation, Trajectory, frozen_map)
+from .robot import JOINT_TYPES, Actuator, Body, Controller, Coordinate, Joint, JointLimits, Load, Robot, Simulation, Trajectory, frozen_map
 from .yamlsource import load, read_text
 
 TRAJECTORY_KINDS = ("cycloidal", "quintic", "expression")
@@ -45,8 +44,11 @@ MAX_COORDINATES = 100
 MAX_ROWS = 1_000_000      # simulation.t_end / simulation.output_step
 # constants beyond these make SymPy's exact arithmetic crawl (300-digit rationals)
 SMALLEST, LARGEST = 1e-30, 1e30
+#: joint keys for the forces along the joint (robot.Joint), reaction on the parent
+JOINT_FORCE_KEYS = ("damping", "friction", "friction_velocity", "stiffness", "rest")
+LOAD_FRAMES = ("world", "body")
 TOP_KEYS = ("name", "description", "parameters", "gravity", "coordinates", "bodies",
-            "actuators", "controller", "trajectory", "simulation")
+            "actuators", "controller", "loads", "trajectory", "simulation")
 
 
 def load_robot(path: str | Path) -> Robot:
@@ -216,13 +218,15 @@ class _RobotBuilder:
             controller = self.controller(top["controller"], actuators, coordinates)
         else:
             controller = None
+        loads = self.loads(top["loads"], bodies, coordinates) if "loads" in top else ()
         trajectory = self.trajectory(top["trajectory"]) if "trajectory" in top else None
         simulation = self.simulation(top["simulation"]) if "simulation" in top else Simulation()
         robot = Robot(name=name, source=self.root.source, digest=self.digest,
                       parameters=frozen_map(self.definitions), gravity=gravity,
                       coordinates=coordinates, bodies=bodies, actuators=actuators,
-                      controller=controller, trajectory=trajectory, simulation=simulation,
-                      description=description, name_given="name" in top)
+                      controller=controller, loads=loads, trajectory=trajectory,
+                      simulation=simulation, description=description,
+                      name_given="name" in top)
         self.check_mass_matrix(robot, top["coordinates"], coordinate_cursors)
         return robot
 
@@ -375,7 +379,8 @@ class _RobotBuilder:
         return Body(name, parent, joint, mass, com, sp.ImmutableMatrix(inertia))
 
     def joint(self, cursor: Cursor, free_coordinates, units: dict[str, str]) -> Joint:
-        fields = cursor.mapping(("type", "axis", "origin", "rpy", "displacement"),
+        fields = cursor.mapping(("type", "axis", "origin", "rpy", "displacement", "limits",
+                                 *JOINT_FORCE_KEYS),
                                 required=("type",))
         kind = fields["type"].choice(JOINT_TYPES)
         origin = self.constant_vector(fields.get("origin"))
@@ -385,6 +390,13 @@ class _RobotBuilder:
             for key in ("axis", "displacement"):
                 if key in fields:
                     raise fields[key].error("a fixed joint has no axis or displacement; "
+                                            "remove it or make the joint revolute or prismatic")
+            if "limits" in fields:
+                raise fields["limits"].error("a fixed joint has no limits; remove them or make "
+                                             "the joint revolute or prismatic")
+            for key in JOINT_FORCE_KEYS:
+                if key in fields:
+                    raise fields[key].error(f"a fixed joint does not move, so it has no {key}; "
                                             "remove it or make the joint revolute or prismatic")
             return Joint(kind, zero, origin, rpy, sp.Integer(0))
         if "axis" not in fields:
@@ -411,11 +423,55 @@ class _RobotBuilder:
                 "the displacement must depend on at least one coordinate, e.g. q1 or q2 - q1")
         for symbol in sorted(used, key=str):
             units.setdefault(symbol.name, "rad" if kind == "revolute" else "m")
-        return Joint(kind, axis, origin, rpy, displacement)
+        limits = self.limits(fields["limits"]) if "limits" in fields else JointLimits()
+        return Joint(kind, axis, origin, rpy, displacement, limits=limits,
+                     **self.joint_forces(fields, kind))
+
+    def joint_forces(self, fields: dict[str, Cursor], kind: str) -> dict[str, sp.Expr]:
+        """damping, friction, friction_velocity, stiffness, rest: constants (expressions of
+        the parameters); damping, friction and stiffness >= 0, friction_velocity > 0."""
+        rotary = kind == "revolute"
+        units = {"damping": "N*m*s/rad" if rotary else "N*s/m",
+                 "friction": "N*m" if rotary else "N",
+                 "friction_velocity": "rad/s" if rotary else "m/s",
+                 "stiffness": "N*m/rad" if rotary else "N/m"}
+        result: dict[str, sp.Expr] = {}
+        for key in JOINT_FORCE_KEYS:
+            if key not in fields:
+                continue
+            expr = self.constant(fields[key])
+            value = self.check_numeric(fields[key], expr)
+            if key == "friction_velocity" and value <= 0:
+                raise fields[key].error(f"must be positive (the joint rate, in "
+                                        f"{units[key]}, over which friction is smoothed), got "
+                                        f"{value:g}")
+            if key in ("damping", "friction", "stiffness") and value < 0:
+                raise fields[key].error(f"must be 0 or positive ({units[key]}), got {value:g}")
+            result[key] = expr
+        return result
+
+    def limits(self, cursor: Cursor) -> JointLimits:
+        """Bounds a run is checked against: lower <= displacement <= upper (rad or m),
+        |rate| <= velocity, |effort| <= effort; lower <= upper, velocity and effort > 0."""
+        fields = cursor.mapping(("lower", "upper", "velocity", "effort"))
+        exprs: dict[str, sp.Expr] = {}
+        values: dict[str, float] = {}
+        for key, item in fields.items():
+            exprs[key] = self.constant(item)
+            values[key] = self.check_numeric(item, exprs[key])
+            if key in ("velocity", "effort") and values[key] <= 0:
+                raise item.error(f"must be positive, got {values[key]:g}")
+        if values.get("lower", -math.inf) > values.get("upper", math.inf):
+            raise fields["upper"].error(f"upper limit {values['upper']:g} is below the lower "
+                                        f"limit {values['lower']:g}")
+        return JointLimits(**{k: e.xreplace(self.values) for k, e in exprs.items()})
 
     def inertia(self, cursor: Cursor) -> sp.Matrix:
         keys = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
-        fields = cursor.mapping(keys)
+        fields = cursor.mapping(keys + ("triangle_inequality",))
+        # "ignore": an imported inertia kept as given (anadyn import --inertia accept)
+        triangle = (fields.pop("triangle_inequality").choice(("check", "ignore"))
+                    if "triangle_inequality" in fields else "check")
         value = {}
         numbers = {}
         for k in keys:
@@ -440,7 +496,7 @@ class _RobotBuilder:
             raise cursor.error(f"inertia tensor must be positive semidefinite; its principal "
                                f"moments are {', '.join(f'{m:g}' for m in moments)}")
         a, b, c = moments
-        if a + b < c - 1e-9 * scale:
+        if triangle == "check" and a + b < c - 1e-9 * scale:
             raise cursor.error(f"principal moments {a:g}, {b:g}, {c:g} break the triangle "
                                "inequality (no rigid body has them: I1 + I2 >= I3)")
         return matrix
@@ -604,6 +660,47 @@ class _RobotBuilder:
             raise laws_cursor.error(f"no law for actuator(s) {', '.join(missing)}; "
                                     "every actuator needs one")
         return Controller(frozen_map(gains), frozen_map(laws))
+
+    def loads(self, cursor: Cursor, bodies: tuple[Body, ...],
+              coordinates: tuple[Coordinate, ...]) -> tuple[Load, ...]:
+        """External forces and torques: ``body``, ``point`` (body axes, constants),
+        ``force`` and/or ``torque`` (expressions of t, the coordinates and their rates),
+        ``frame`` (world or body: the axes of the two vectors)."""
+        by_name = {b.name: b for b in bodies}
+        names = {**self.symbols, **self.q, "t": sp.Symbol("t", real=True)}
+        names.update({"d" + k: sp.Symbol("d" + k, real=True) for k in self.q})
+        state = self.initial_state(coordinates)
+        result = []
+        for item in cursor.sequence():
+            fields = item.mapping(("body", "point", "force", "torque", "frame"),
+                                  required=("body",))
+            body = fields["body"].value
+            if not isinstance(body, str):
+                raise fields["body"].error(f"expected a body name, got {_kind(body)}")
+            if body not in by_name:
+                close = difflib.get_close_matches(body, list(by_name), n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise fields["body"].error(f"unknown body {_short(body)!r}{hint}; loads act on "
+                                           f"one of: {', '.join(by_name)}")
+            if "force" not in fields and "torque" not in fields:
+                raise item.error("a load needs a force, a torque or both, e.g. "
+                                 "force: [0, 0, -50] (N) or torque: [0, 0, 2] (N*m)")
+            if "point" in fields and "force" not in fields:
+                raise fields["point"].error("only a force has a point of application (a "
+                                            "torque acts on the whole body); remove the point "
+                                            "or add a force")
+            point = self.constant_vector(fields.get("point"))
+            frame = fields["frame"].choice(LOAD_FRAMES) if "frame" in fields else "world"
+            vectors = {}
+            for key in ("force", "torque"):
+                vectors[key] = (sp.Integer(0),) * 3
+                if key in fields:
+                    vectors[key] = fields[key].vector(names, self.unavailable(names))
+                    for i, component in enumerate(vectors[key]):
+                        self.defined_at(fields[key], component, state,
+                                        f"the {'xyz'[i]} component")
+            result.append(Load(body, point, vectors["force"], vectors["torque"], frame))
+        return tuple(result)
 
     def trajectory(self, cursor: Cursor) -> Trajectory:
         fields = cursor.mapping(("kind", "duration", "from", "to", "expressions"),

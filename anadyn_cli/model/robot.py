@@ -12,7 +12,7 @@ from typing import Mapping
 
 import sympy as sp
 
-from ..robotinfo import Simulation
+from .info import Simulation
 
 Vector = tuple[sp.Expr, sp.Expr, sp.Expr]
 JOINT_TYPES = ("revolute", "prismatic", "fixed")
@@ -54,6 +54,25 @@ class Joint:
     origin: Vector
     rpy: Vector
     displacement: sp.Expr     # expression of the coordinates (0 for fixed)
+    # forces along the joint (theta = displacement), reaction on the parent:
+    #   -damping*dtheta - friction*tanh(dtheta/friction_velocity) - stiffness*(theta - rest)
+    damping: sp.Expr = sp.Integer(0)
+    friction: sp.Expr = sp.Integer(0)
+    friction_velocity: sp.Expr = sp.Float(0.01)
+    stiffness: sp.Expr = sp.Integer(0)
+    rest: sp.Expr = sp.Integer(0)
+    limits: "JointLimits" = field(default_factory=lambda: JointLimits())
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Bounds a run is checked against (None: no bound): displacement
+    lower..upper (rad or m), |rate| <= velocity, |effort| <= effort for an
+    actuator on this joint."""
+    lower: sp.Expr | None = None
+    upper: sp.Expr | None = None
+    velocity: sp.Expr | None = None
+    effort: sp.Expr | None = None
 
 
 @dataclass(frozen=True)
@@ -74,6 +93,18 @@ class Actuator:
     name: str
     body: str
     unit: str                 # "N*m" or "N"
+
+
+@dataclass(frozen=True)
+class Load:
+    """An external force and/or torque on ``body``: the force acts at ``point``
+    (body axes, m); both vectors are expressions of t, q, dq in world axes
+    (``frame`` "world") or body axes ("body"), zero when absent."""
+    body: str
+    point: Vector
+    force: Vector
+    torque: Vector
+    frame: str = "world"
 
 
 @dataclass(frozen=True)
@@ -108,6 +139,7 @@ class Robot:
     bodies: tuple[Body, ...]               # parents before children
     actuators: tuple[Actuator, ...]
     controller: Controller | None = None
+    loads: tuple[Load, ...] = ()
     trajectory: Trajectory | None = None
     simulation: Simulation = field(default_factory=Simulation)
     description: str = ""

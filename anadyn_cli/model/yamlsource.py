@@ -35,10 +35,26 @@ class _Loader(yaml.SafeLoader):
         return super().compose_node(parent, index)
 
 
-def read_text(path: str | Path) -> tuple[str, str]:
-    """(text, display name) of a robot or config file; ModelError if unreadable."""
-    path = Path(path)
+def read_text(path: str | Path, quiet: bool = False) -> tuple[str, str]:
+    """(text, display name) of a robot or config file; ModelError if unreadable.
+
+    A path that does not exist may name a library robot (``library.resolve``);
+    a ``.urdf`` file is imported (``urdf.import_file``) and its text is the
+    anadyn YAML that ``anadyn import`` writes, so caching and validation work
+    as for any robot file.  The import's warnings go to stderr unless ``quiet``.
+    """
+    from . import library
+
+    path = library.resolve(path)
     name = str(path)
+    if path.suffix.lower() == ".urdf" and path.exists():
+        from .urdf import import_file
+
+        imported = import_file(path)
+        if not quiet:
+            for warning in imported.warnings:
+                library.announce(f"warning: {warning}")
+        return imported.text, name
     try:
         if path.is_dir():
             raise ModelError("is a directory, expected a YAML file", source=name)
@@ -53,7 +69,8 @@ def read_text(path: str | Path) -> tuple[str, str]:
         if len(raw) > MAX_BYTES:
             raise ModelError(f"file is over {MAX_BYTES} bytes, the limit", source=name)
     except FileNotFoundError:
-        raise ModelError("no such file", source=name) from None
+        from .library import missing_hint
+        raise ModelError("no such file" + missing_hint(path), source=name) from None
     except OSError as err:
         raise ModelError(f"cannot read: {err.strerror}", source=name) from None
     try:

@@ -14,11 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import integrators, output
-from .build import compile_robot
-from .compiled import CompiledRobot
-from .errors import ModelError, NumericalError, positive
-from .robotinfo import RobotInfo, Simulation
+from ..numeric import integrators
+from ..output import files as output
+from ..output import plots
+from ..numeric.build import compile_robot
+from ..numeric.model import CompiledRobot
+from ..errors import ModelError, NumericalError, positive
+from ..model.info import RobotInfo, Simulation
 
 DEFAULTS = Simulation(t_end=10.0, output_step=0.01, method="auto", rtol=1e-10, atol=1e-12)
 #: settings -> the command-line options that set them
@@ -34,6 +36,7 @@ class SimulationResult:
     efforts: np.ndarray                   # m x rows
     timings: dict = field(default_factory=dict)
     estimated_error: float | None = None  # accuracy.estimate_error, when asked for
+    formulation: str = ""                 # kane or lagrange (named in the plot's title)
 
     @property
     def t(self) -> np.ndarray:
@@ -96,7 +99,8 @@ def simulate(robot, formulation: str = "kane", compiled: CompiledRobot | None = 
     q, dq = solution.x[:, :n].T, solution.x[:, n:].T
     efforts = compiled.efforts(solution.t, q, dq) if robot.actuators else np.zeros((0, len(q[0])))
     efforts = np.broadcast_to(efforts, (len(robot.actuators), len(solution.t)))
-    return SimulationResult(robot, settings, solution, np.asarray(efforts), timings)
+    return SimulationResult(robot, settings, solution, np.asarray(efforts), timings,
+                            formulation=formulation)
 
 
 def columns(result: SimulationResult) -> tuple[list[str], list[np.ndarray]]:
@@ -106,8 +110,10 @@ def columns(result: SimulationResult) -> tuple[list[str], list[np.ndarray]]:
     return header, [result.t, *result.x.T, *result.efforts]
 
 
-def write(result: SimulationResult, out: Path, plot: bool = True) -> list[Path]:
-    """simulate.csv (+ .png); on failure only simulate.partial.csv, then NumericalError."""
+def write(result: SimulationResult, out: Path, plot: bool = True, plot_format: str = "png",
+          rates: bool = False) -> list[Path]:
+    """simulate.csv (+ the plot, png/svg/pdf, with the rates if asked); on failure only
+    simulate.partial.csv, then NumericalError."""
     out = output.prepare_dir(out)
     start = time.perf_counter()
     header, data = columns(result)
@@ -119,9 +125,8 @@ def write(result: SimulationResult, out: Path, plot: bool = True) -> list[Path]:
     written = [out / "simulate.csv"]
     output.write_csv(written[0], header, data)
     if plot:
-        written.append(out / "simulate.png")
-        output.write_plot(written[-1], result.t, _panels(result),
-                          f"{result.robot.name}: direct dynamics ({result.solution.method})")
+        written.append(plots.plot_path(out, "simulate", plot_format))
+        plots.write_plot(written[-1], result.t, _panels(result, rates), plot_title(result))
     (out / "simulate.partial.csv").unlink(missing_ok=True)
     result.timings["write"] = time.perf_counter() - start
     written.append(out / "simulate.json")
@@ -145,17 +150,23 @@ def summary(result: SimulationResult) -> dict:
                else {"estimated_error": result.estimated_error})}
 
 
-def _panels(result: SimulationResult):
-    panels = []
-    for i, c in enumerate(result.robot.coordinates):
-        values = result.x[:, i]
-        unit = "deg" if c.unit == "rad" else "m"
-        panels.append((f"{c.name} ({unit})", [(c.name, np.degrees(values) if unit == "deg"
-                                                else values)]))
+def plot_title(result: SimulationResult) -> str:
+    """Robot, what was integrated, the method and its tolerances."""
+    solution, settings = result.solution, result.settings
+    method = (f"auto -> {solution.method}" if solution.reason else solution.method)
+    formulation = f"{result.formulation}, " if result.formulation else ""
+    return (f"{result.robot.name}: direct dynamics, {formulation}{method}, "
+            f"rtol {settings.rtol:g}, atol {settings.atol:g}")
+
+
+def _panels(result: SimulationResult, rates: bool = False) -> list:
+    """A panel per coordinate (and rate), efforts grouped by unit."""
+    n = len(result.robot.coordinates)
+    coordinates = [(c.name, c.unit) for c in result.robot.coordinates]
+    panels = plots.state_panels(coordinates, result.x[:, :n], result.x[:, n:] if rates else None)
     if result.robot.actuators:
-        units = sorted({a.unit for a in result.robot.actuators})
-        panels.append((f"effort ({', '.join(u.replace('*', '·') for u in units)})",
-                       [(a.name, result.efforts[k]) for k, a in enumerate(result.robot.actuators)]))
+        panels += plots.effort_panels([(a.name, a.unit) for a in result.robot.actuators],
+                                      result.efforts.T)
     return panels
 
 

@@ -11,8 +11,8 @@ import time
 from pathlib import Path
 
 from . import cache
-from .compiled import CompiledRobot
-from .robotinfo import RobotInfo
+from .model import CompiledRobot
+from ..model.info import RobotInfo
 
 
 def compile_robot(robot, formulation: str = "kane", timings: dict | None = None,
@@ -26,15 +26,15 @@ def compile_robot(robot, formulation: str = "kane", timings: dict | None = None,
             timings["cache"] = "hit"
             return hit[1]
         timings["cache"] = "miss"
-    from . import numeric
-    from .formulations import derive
+    from . import closed_form
+    from ..symbolic.formulations import derive
 
     if eom is None:
         start = time.perf_counter()
         eom = derive(robot, formulation)
         timings["derive"] = time.perf_counter() - start
     start = time.perf_counter()
-    code = numeric.source(robot, eom)
+    code = closed_form.source(robot, eom)
     compiled = CompiledRobot(code)
     timings["compile"] = time.perf_counter() - start
     if use_cache:
@@ -46,7 +46,7 @@ def compile_robot(robot, formulation: str = "kane", timings: dict | None = None,
 def prepare(path: str | Path, formulation: str = "kane", use_cache: bool = True,
             timings: dict | None = None) -> tuple[RobotInfo, CompiledRobot]:
     """Robot info and compiled functions for the file at ``path``."""
-    from .model.yamlsource import read_text
+    from ..model.yamlsource import read_text
 
     timings = {} if timings is None else timings
     text, source = read_text(path)
@@ -56,7 +56,7 @@ def prepare(path: str | Path, formulation: str = "kane", use_cache: bool = True,
         if hit is not None:
             timings["cache"] = "hit"
             return hit
-    from .model import robot_from_text
+    from ..model import robot_from_text
 
     start = time.perf_counter()
     robot = robot_from_text(text, source)

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from .model.names import GROUND
-from .model.robot import Body, Robot
+from ..model.names import GROUND
+from ..model.robot import Body, Robot
 
 Matrix = sp.ImmutableMatrix
 
@@ -58,6 +58,7 @@ class Kinematics:
     dq: tuple[sp.Symbol, ...]
     gravity: Matrix            # world axes (3 x 1)
     bodies: tuple[BodyKinematics, ...]
+    symbolic: bool = False     # parameters left as symbols (else their numbers substituted)
 
     def angular_velocity(self, i: int) -> Matrix:
         return self.bodies[i].W * Matrix(self.dq)
@@ -145,7 +146,7 @@ def build(robot: Robot, symbolic: bool = False) -> Kinematics:
             R_local=R_local, origin=origin, R=R, position=position, W=W, Vo=Vo, V=V,
             com=com, inertia=Matrix(body.inertia.xreplace(values)), mass=sub(body.mass)))
     gravity = Matrix([sub(g) for g in robot.gravity])
-    return Kinematics(q=q, dq=dq, gravity=gravity, bodies=tuple(result))
+    return Kinematics(q=q, dq=dq, gravity=gravity, bodies=tuple(result), symbolic=symbolic)
 
 
 def potential_energy(kin: Kinematics) -> sp.Expr:

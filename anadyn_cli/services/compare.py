@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import output
-from .errors import CheckFailed, ModelError, NumericalError, positive
+from ..output import files as output
+from ..errors import CheckFailed, ModelError, NumericalError, positive
 
 SAMPLES = 200
 SEED = 0
@@ -151,7 +151,7 @@ def symbolic_check(kane, lagrange, budget: int = SYMBOLIC_TERMS,
     """Check (a) on two ``EquationsOfMotion``; time bounded by the term budgets."""
     import sympy as sp
 
-    from .canonical import canonical, expanded_terms
+    from ..symbolic.canonical import canonical, expanded_terms
 
     start = time.perf_counter()
     result = Symbolic("zero")
@@ -332,9 +332,9 @@ def compare_robot(robot, samples: int = SAMPLES, seed: int = SEED, rtol: float =
                   trajectory_tol: float = TRAJECTORY_TOL, symbolic_terms: int = SYMBOLIC_TERMS,
                   t_end: float | None = None, use_cache: bool = True) -> RobotComparison:
     """Checks (a), (b), (c) for one validated ``Robot``."""
-    from .build import compile_robot
-    from .formulations import derive
-    from .robotinfo import RobotInfo
+    from ..numeric.build import compile_robot
+    from ..symbolic.formulations import derive
+    from ..model.info import RobotInfo
 
     timings: dict = {}
     start = time.perf_counter()

@@ -17,11 +17,12 @@ from __future__ import annotations
 
 import sympy as sp
 
-from . import __version__, kinematics
+from .. import __version__
+from ..symbolic import kinematics
 from .codegen import Function, module_source, solver_source
-from .derivative import Derivative
-from .eom import EquationsOfMotion
-from .model.robot import Robot
+from ..symbolic.derivative import Derivative
+from ..symbolic.eom import EquationsOfMotion
+from ..model.robot import Robot
 
 
 def control_laws(robot: Robot) -> sp.Matrix:

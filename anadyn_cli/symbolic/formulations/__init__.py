@@ -12,8 +12,8 @@ import sympy as sp
 from .. import kinematics
 from ..canonical import canonical, fits
 from ..eom import EquationsOfMotion
-from ..errors import ModelError
-from ..model.robot import Robot
+from ...errors import ModelError
+from ...model.robot import Robot
 from . import kane, lagrange
 
 METHODS = {"kane": kane.equations, "lagrange": lagrange.equations}

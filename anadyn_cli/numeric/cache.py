@@ -17,7 +17,7 @@ import json
 import os
 from pathlib import Path
 
-from . import __version__
+from .. import __version__
 
 FORMAT = 1
 
@@ -58,7 +58,7 @@ def load(robot_digest: str, formulation: str) -> dict | None:
 
 
 def store(robot_digest: str, formulation: str, entry: dict) -> None:
-    from .output import write_text
+    from ..output.files import write_text
 
     folder = directory()
     try:

@@ -23,7 +23,7 @@ import sympy as sp
 
 from ..eom import EquationsOfMotion
 from ..kinematics import Kinematics, cross_columns
-from ..model.robot import Robot
+from ...model.robot import Robot
 
 Matrix = sp.ImmutableMatrix
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from .model.names import default_name
+from .names import default_name
 
 
 @dataclass(frozen=True)

@@ -21,8 +21,8 @@ import numpy as np
 import sympy as sp
 
 from .codegen import Function, module_source
-from .errors import ModelError
-from .model.robot import Robot
+from ..errors import ModelError
+from ..model.robot import Robot
 
 T = sp.Symbol("t", real=True)
 

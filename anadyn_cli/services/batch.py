@@ -49,8 +49,8 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
-from . import output
-from .errors import CheckFailed, ModelError
+from ..output import files as output
+from ..errors import CheckFailed, ModelError
 
 COMMANDS = ("simulate", "inverse", "compare", "accuracy", "check")
 TOP_KEYS = ("description", "timeout", "jobs")
@@ -141,11 +141,11 @@ class BatchResult:
 # ----------------------------------------------------------------------------
 def load_batch(path: str | Path) -> Batch:
     """Read and validate a batch file; ModelError (exit 2) naming file, line and key path."""
-    from .model.yamlsource import load, read_text
+    from ..model.yamlsource import load, read_text
 
     text, source = read_text(path)
     data, lines = load(text, source)
-    from .model.loader import Cursor
+    from ..model.loader import Cursor
 
     root = Cursor(data, "", source, lines)
     top = root.mapping(TOP_KEYS, required=("jobs",))

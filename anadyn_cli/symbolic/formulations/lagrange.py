@@ -19,7 +19,7 @@ import sympy as sp
 
 from ..eom import EquationsOfMotion
 from ..kinematics import Kinematics
-from ..model.robot import Robot
+from ...model.robot import Robot
 from ..derivative import Derivative
 
 Matrix = sp.ImmutableMatrix

@@ -50,11 +50,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import integrators, output
+from ..numeric import integrators
+from ..output import files as output
 from .accuracy import run
-from .compiled import CompiledRobot
-from .errors import CheckFailed, ModelError, NumericalError, positive
-from .robotinfo import RobotInfo
+from ..numeric.model import CompiledRobot
+from ..errors import CheckFailed, ModelError, NumericalError, positive
+from ..model.info import RobotInfo
 from .simulate import initial_state, output_grid, resolve
 
 SAMPLES = 200                 # Jacobian eigenvalue samples along the path

@@ -13,7 +13,7 @@ import sympy as sp
 
 from .canonical import fits
 from .eom import EquationsOfMotion
-from .errors import ModelError
+from ..errors import ModelError
 
 FORMATS = ("text", "latex")
 FORMS = ("residual", "matrices")

@@ -53,10 +53,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import integrators, output
-from .compiled import CompiledRobot
-from .errors import ModelError, NumericalError
-from .robotinfo import RobotInfo
+from ..numeric import integrators
+from ..output import files as output
+from ..numeric.model import CompiledRobot
+from ..errors import ModelError, NumericalError
+from ..model.info import RobotInfo
 from .simulate import initial_state, output_grid, resolve
 
 TOLERANCES = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)

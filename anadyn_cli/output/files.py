@@ -3,19 +3,21 @@
 Each file goes to a temporary name in the same folder, is flushed to disk and
 then renamed over its target (``os.replace`` is atomic on one file system),
 so a failed or interrupted run never leaves a half-written file or clobbers
-an earlier good one.  Plots use Matplotlib's Agg backend (no display).
+an earlier good one.  Files get the permissions the user's umask gives any new
+file (0644 under the usual 022), not the temporary file's private 0600.
+Plots are drawn by ``output.plots`` and written here as bytes.
 """
 from __future__ import annotations
 
-import io
 import json
 import os
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
 
-from .errors import ModelError
+from ..errors import ModelError
 
 
 class WriteError(ModelError, OSError):
@@ -65,10 +67,39 @@ def write_bytes(path: Path, data: bytes) -> None:
                          "are left as they were") from None
 
 
+def file_mode() -> int:
+    """The mode a new file gets from the user's umask (0o666 & ~umask)."""
+    global _FILE_MODE
+    if _FILE_MODE is None:
+        with _UMASK_LOCK:
+            if _FILE_MODE is None:
+                _FILE_MODE = 0o666 & ~_umask()
+    return _FILE_MODE
+
+
+_FILE_MODE: int | None = None
+_UMASK_LOCK = threading.Lock()
+
+
+def _umask() -> int:
+    """The process umask, read without changing it where the system tells it."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)          # elsewhere: set and restore, once per process
+    os.umask(mask)
+    return mask
+
+
 def _write_atomically(path: Path, data: bytes) -> None:
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        with os.fdopen(handle, "wb") as stream:
+        os.fchmod(handle, file_mode())     # mkstemp makes 0600; results are for everyone the
+        with os.fdopen(handle, "wb") as stream:   # umask allows
             stream.write(data)
             stream.flush()
             os.fsync(stream.fileno())
@@ -88,36 +119,15 @@ def write_json(path: Path, data: dict) -> None:
 
 
 def csv_text(header: list[str], columns: list[np.ndarray]) -> str:
-    """CSV with a header row; numbers in full double precision (%.17g)."""
-    table = np.column_stack([np.asarray(c, dtype=float) for c in columns]) if columns else []
-    buffer = io.StringIO()
-    buffer.write(",".join(header) + "\n")
-    np.savetxt(buffer, table, fmt="%.17g", delimiter=",")
-    return buffer.getvalue()
+    """CSV with a header row; each number as the shortest text that reads back to
+    the same double (Python's ``repr``: 0.08, not 0.080000000000000002), and
+    never a negative zero."""
+    lines = [",".join(header)]
+    if columns:
+        table = np.column_stack([np.asarray(c, dtype=float) for c in columns]) + 0.0
+        lines += [",".join(map(float.__repr__, row)) for row in table.tolist()]
+    return "\n".join(lines) + "\n"
 
 
 def write_csv(path: Path, header: list[str], columns: list[np.ndarray]) -> None:
     write_text(path, csv_text(header, columns))
-
-
-def write_plot(path: Path, t: np.ndarray, panels: list[tuple[str, list[tuple[str, np.ndarray]]]],
-               title: str) -> None:
-    """One panel per (y label, [(legend, values)]), sharing the time axis."""
-    import matplotlib
-    matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-
-    figure = Figure(figsize=(7, 1.9 * len(panels) + 0.6), layout="constrained")
-    axes = figure.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, (label, series) in zip(axes, panels):
-        for name, values in series:
-            ax.plot(t, values, label=name, linewidth=1.2)
-        ax.set_ylabel(label)
-        ax.grid(True, alpha=0.4)
-        if len(series) > 1:
-            ax.legend(loc="best", fontsize="small")
-    axes[-1].set_xlabel("t (s)")
-    figure.suptitle(title)
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=110)
-    write_bytes(path, buffer.getvalue())

@@ -29,10 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import output
-from .compiled import CompiledRobot
-from .errors import CheckFailed, ModelError, NumericalError, positive
-from .robotinfo import RobotInfo
+from ..output import files as output
+from ..numeric.model import CompiledRobot
+from ..errors import CheckFailed, ModelError, NumericalError, positive
+from ..model.info import RobotInfo
 
 DEFAULT_STEP = 0.01          # s, output grid (else the file's simulation.output_step)
 DEFAULT_TOLERANCE = 1e-6     # rad or m, largest round-trip tracking error
@@ -131,8 +131,8 @@ def inverse(robot, formulation: str = "kane", step: float | None = None,
             compiled: CompiledRobot | None = None, timings: dict | None = None,
             use_cache: bool = True) -> InverseResult:
     """Efforts along ``robot``'s trajectory (a validated ``Robot``), and the round trip."""
-    from . import trajectory
-    from .build import compile_robot
+    from ..numeric import trajectory
+    from ..numeric.build import compile_robot
 
     timings = {} if timings is None else timings
     if robot.trajectory is None:

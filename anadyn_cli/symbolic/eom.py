@@ -1,15 +1,21 @@
 """The one contract between the formulations and everything else:
 
-    M(q) ddq = F(q, dq) + B(q) tau
+    M(q) ddq = F(t, q, dq) + B(q) tau
 
-M is n x n, F is n x 1 (gravity and velocity-product terms), B is n x m
-(actuator efforts tau, in the order of the robot's actuators).
+M is n x n, B is n x m (actuator efforts tau, in the order of the robot's
+actuators), F is n x 1: gravity and velocity-product terms plus Q, the
+generalized forces of the joint forces (damping, friction, springs) and the
+external loads.  Only loads depend on t; without them F is F(q, dq).  Q is
+also kept on its own (n x 1, zero for a robot without such forces) so that
+the equations can show it apart; it is already part of F.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import sympy as sp
+
+TIME = sp.Symbol("t", real=True)
 
 
 @dataclass(frozen=True)
@@ -23,6 +29,17 @@ class EquationsOfMotion:
     F: sp.ImmutableMatrix
     B: sp.ImmutableMatrix
     symbolic: bool = False               # parameters left as symbols
+    Q: sp.ImmutableMatrix | None = None  # joint forces and loads (part of F); None: zero
+
+    @property
+    def t(self) -> sp.Symbol:
+        """Time, as it appears in F through the loads."""
+        return TIME
+
+    @property
+    def joint_forces_and_loads(self) -> sp.ImmutableMatrix:
+        """Q (n x 1), zeros when the robot has no joint forces or loads."""
+        return self.Q if self.Q is not None else sp.ImmutableMatrix.zeros(len(self.q), 1)
 
     @property
     def residuals(self) -> list[sp.Expr]:
@@ -33,7 +50,7 @@ class EquationsOfMotion:
     @property
     def parameters(self) -> set[sp.Symbol]:
         """Symbols other than q, dq, tau (non-empty only when symbolic)."""
-        known = set(self.q) | set(self.dq) | set(self.efforts)
+        known = set(self.q) | set(self.dq) | set(self.efforts) | {TIME}
         found: set[sp.Symbol] = set()
         for matrix in (self.M, self.F, self.B):
             found |= matrix.free_symbols
