@@ -7,22 +7,49 @@ ANADYN_DEBUG=1).  Heavy libraries are imported inside the commands.
 """
 from __future__ import annotations
 
+import functools
 import os
 import sys
 
 import typer
 
-from .errors import AnadynError
+from .errors import AnadynError, SettingError
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+app = typer.Typer(add_completion=True, no_args_is_help=True,
+                  context_settings={"help_option_names": ["-h", "--help"]},
                   pretty_exceptions_enable=False, rich_markup_mode=None,
                   help="Analytical dynamics of robot arms: Kane's method and Lagrange's "
                        "equations from a YAML robot description.")
 
 
+def _show_version(value: bool) -> None:
+    if value:
+        from . import __version__
+        typer.echo(f"anadyn {__version__}")
+        raise typer.Exit()
+
+
 @app.callback()
-def _group() -> None:
-    """Analytical dynamics of robot arms (every command takes --help)."""
+def _group(version: bool = typer.Option(False, "--version", "-V", callback=_show_version,
+                                        is_eager=True, help="Print anadyn's version and exit."),
+           ) -> None:
+    """Analytical dynamics of robot arms (every command takes -h / --help)."""
+
+
+class _Interrupted(Exception):
+    """Ctrl-C inside a command.  Typer turns a KeyboardInterrupt into a silent
+    exit 130 before ``main`` could see it; this passes through typer untouched."""
+
+
+def _interruptible(command):
+    """``command`` with Ctrl-C raised as ``_Interrupted`` (signature kept for typer)."""
+    @functools.wraps(command)
+    def run(*args, **kwargs):
+        try:
+            return command(*args, **kwargs)
+        except KeyboardInterrupt:
+            raise _Interrupted() from None
+    return run
 
 
 def _register_commands() -> None:
@@ -32,7 +59,7 @@ def _register_commands() -> None:
     from .commands import COMMANDS
 
     for command in COMMANDS:
-        app.command()(command)
+        app.command(name=getattr(command, "cli_name", None))(_interruptible(command))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -41,15 +68,22 @@ def main(argv: list[str] | None = None) -> int:
     Typer itself reports usage errors (exit 2) and --help; anadyn's own
     errors become one line on stderr with their exit code.
     """
+    from .output import progress
+
     _register_commands()
     try:
-        app(args=argv, prog_name="anadyn")
+        with progress.session():          # what long commands are doing, on stderr
+            app(args=argv, prog_name="anadyn")
     except SystemExit as done:
         return done.code if isinstance(done.code, int) else (0 if done.code is None else 1)
+    except SettingError as err:
+        from .commands.common import flag_message
+        typer.echo(f"anadyn: error: {flag_message(err.setting, err.reason)}", err=True)
+        return err.exit_code
     except AnadynError as err:
         typer.echo(f"anadyn: error: {err}", err=True)
         return err.exit_code
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, _Interrupted):
         typer.echo("anadyn: interrupted; results written before the interruption are "
                    "complete, none is half-written", err=True)
         return 130

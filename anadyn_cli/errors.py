@@ -46,9 +46,19 @@ class NumericalError(AnadynError):
     exit_code = 3
 
 
-def positive(option: str, value: float) -> float:
-    """``value`` of a command-line ``option`` if it is a finite number > 0, else ModelError."""
+class SettingError(ModelError):
+    """A run setting is wrong: ``setting`` is its name in the library (e.g.
+    ``output_step``); the CLI names the flag that set it instead (``--dt``)."""
+
+    def __init__(self, setting: str, reason: str):
+        self.setting = setting
+        super().__init__(f"{setting} {reason}")
+        self.reason = reason
+
+
+def positive(setting: str, value: float) -> float:
+    """``value`` of ``setting`` if it is a finite number > 0, else SettingError."""
     value = float(value)
     if not (math.isfinite(value) and value > 0):
-        raise ModelError(f"{option} must be a positive number, got {value:g}")
+        raise SettingError(setting, f"must be a positive number, got {value:g}")
     return value

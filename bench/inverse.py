@@ -3,7 +3,7 @@
     python bench/inverse.py [--robot robots/rrt.yaml] [--points 100000] [--repeats 5]
 
 Both paths use the same compiled functions: the trajectory's generated
-``motion(t) -> q, dq, ddq`` and the robot's generated ``mfb(q, dq) -> M, F, B``,
+``motion(t) -> q, dq, ddq`` and the robot's generated ``mfb(t, q, dq) -> M, F, B``,
 then tau = B^-1 (M ddq - F).
 
   vectorized   one call of each over the whole grid, one batched solve
@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from anadyn_cli import load_robot                      # noqa: E402
-from anadyn_cli.numeric.build import compile_robot             # noqa: E402
+from anadyn_cli.numeric.build import numeric_model             # noqa: E402
 from anadyn_cli.services.inverse import InverseDynamics         # noqa: E402
 from anadyn_cli.numeric.trajectory import motion               # noqa: E402
 
@@ -50,7 +50,7 @@ def loop(dynamics: InverseDynamics, t: np.ndarray) -> np.ndarray:
     out = np.empty((len(t), dynamics.m))
     for k, moment in enumerate(t.tolist()):
         q, dq, ddq = prescribed(moment)
-        M, F, B = mfb(q, dq)
+        M, F, B = mfb(moment, q, dq)
         out[k] = np.linalg.solve(B, M @ ddq - F)
     return out
 
@@ -65,7 +65,7 @@ def main() -> int:
     args = parser.parse_args()
 
     robot = load_robot(args.robot)
-    compiled = compile_robot(robot, args.formulation, use_cache=False)
+    compiled = numeric_model(robot, args.formulation)
     dynamics = InverseDynamics(compiled, motion(robot))
     duration = float(robot.trajectory.duration)
     t = np.linspace(0.0, duration, args.points)
@@ -81,7 +81,7 @@ def main() -> int:
     tau = result[3]
     parts = {}
     parts["motion"], (q, dq, ddq) = best_of(args.repeats, lambda: dynamics.motion(t))
-    parts["mfb"], (M, F, B) = best_of(args.repeats, lambda: dynamics.matrices(q, dq))
+    parts["mfb"], (M, F, B) = best_of(args.repeats, lambda: dynamics.matrices(t, q, dq))
     parts["solve"], _ = best_of(args.repeats, lambda: dynamics.solve(M, F, B, ddq))
     loop_time, looped = best_of(args.loop_repeats, lambda: loop(dynamics, t))
 

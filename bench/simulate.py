@@ -19,7 +19,7 @@ lambdify, so the baseline is not handicapped.
 
 anadyn's side is the robot's default settings (``simulate.resolve``: the
 file's horizon and step, anadyn's method ``auto`` and rtol 1e-10, atol
-1e-12) through ``integrators.integrate`` on ``build.prepare``'s compiled
+1e-12) through ``integrators.integrate`` on ``build.numeric_model``'s
 robot (Kane, the command's default).
 
 Measured, one thing at a time (2 noisy cores):
@@ -292,13 +292,13 @@ def min_time(fn, repeats):
 
 
 def anadyn_setup(name):
-    from anadyn_cli.numeric import build
-    from anadyn_cli.services import simulate as service
+    from anadyn_cli.numeric.build import numeric_model
+    from anadyn_cli.numeric.settings import output_grid, resolve
 
-    info, compiled = build.prepare(ROOT / "robots" / f"{name}.yaml", "kane", use_cache=False)
-    settings = service.resolve(info)
-    grid = service.output_grid(settings.t_end, settings.output_step)
-    return info, compiled, settings, grid, service.initial_state(info)
+    model = numeric_model(ROOT / "robots" / f"{name}.yaml", "kane")
+    settings = resolve(model.info)
+    grid = output_grid(settings.t_end, settings.output_step)
+    return model.info, model, settings, grid, model.initial_state()
 
 
 def reference(rhs, x0, grid):
@@ -348,15 +348,20 @@ def bench_robot(name, repeats):
         b = np.asarray(rhs(1.0, x[back]))[order]
         worst = max(worst, float(np.max(np.abs(a - b)) / max(1.0, np.max(np.abs(a)))))
 
-    ref, ref_time = reference(compiled.rhs, x0, grid)
-    ref_calls = compiled.rhs_calls
+    counted = {"rhs": 0}
+
+    def counted_rhs(t, x):
+        counted["rhs"] += 1
+        return compiled.rhs(t, x)
+
+    ref, ref_time = reference(counted_rhs, x0, grid)
+    ref_calls = counted["rhs"]
     # is the reference good to well below 1e-8?  A different (implicit) method agrees?
     start = time.perf_counter()
     check = solve_ivp(compiled.rhs, (grid[0], grid[-1]), x0, method="Radau", t_eval=grid,
                       jac=compiled.jacobian, **CHECK)
     check_time = time.perf_counter() - start
     ref_gap = float(np.max(np.abs(check.y.T - ref))) if check.status == 0 else math.inf
-    compiled.reset_counters()
 
     calls[0] = 0
     seed_best, sol = min_time(lambda: seed_solve(rhs, x0_seed, grid), repeats)
@@ -370,8 +375,8 @@ def bench_robot(name, repeats):
     walls = []
 
     def run_anadyn():
-        s = integrators.integrate(compiled, x0, grid, settings.method, settings.rtol,
-                                  settings.atol)
+        s = integrators.integrate(compiled.problem(), x0, grid, settings.method,
+                                  settings.rtol, settings.atol)
         walls.append(s.wall)
         return s
 
@@ -380,7 +385,7 @@ def bench_robot(name, repeats):
         raise RuntimeError(f"{name}: anadyn failed: {solution.message}")
 
     # anadyn's write (CSV + PNG + JSON) in this warm process, for the end-to-end split
-    result = service.simulate(info, "kane", compiled=compiled)
+    result = service.simulate(compiled)
     folder = Path(tempfile.mkdtemp(prefix="anadyn-bench-write-"))
     try:
         write_best, _ = min_time(lambda: service.write(result, folder), repeats)

@@ -19,10 +19,19 @@ Modelling (the conventions anadyn documents, restated independently):
 * mass centre at ``com`` (B axes), central inertia tensor in B axes;
 * gravity (N axes) on every mass centre; an actuator on a revolute joint is a
   torque tau*axis on B and -tau*axis on P, on a prismatic joint a force
-  tau*axis on B's origin and the opposite force on the coincident point of P.
+  tau*axis on B's origin and the opposite force on the coincident point of P;
+* joint forces act as an actuator would, with
+  tau = -damping*w - friction*tanh(w/friction_velocity) - stiffness*(theta - rest),
+  theta the displacement and w its rate (friction_velocity 0.01 when not
+  given);
+* a load (``loads``) is a force on the point fixed in the body at ``point``
+  (B axes) and a torque on B, both given in N axes (``frame: world``, the
+  default) or B axes (``frame: body``), expressions of t, the coordinates
+  and their rates (``d`` + name).
 
 KanesMethod with u = q' gives M u' = forcing; M is its mass matrix, F the
-forcing with tau = 0 and B = d(forcing)/d(tau).
+forcing with tau = 0 and B = d(forcing)/d(tau).  F may contain the time, as
+the plain real Symbol ``t``.
 """
 from __future__ import annotations
 
@@ -36,6 +45,8 @@ from sympy.physics import mechanics as me
 
 _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
            ast.Div: operator.truediv, ast.Pow: operator.pow}
+_CALLS = {"sin": sp.sin, "cos": sp.cos, "tanh": sp.tanh, "exp": sp.exp, "sqrt": sp.sqrt}
+TIME = sp.Symbol("t", real=True)
 
 
 def evaluate(value, names: dict):
@@ -61,6 +72,9 @@ def evaluate(value, names: dict):
             return -operand if isinstance(node.op, ast.USub) else operand
         if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
             return _BINARY[type(node.op)](walk(node.left), walk(node.right))
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                and node.func.id in _CALLS and len(node.args) == 1 and not node.keywords):
+            return _CALLS[node.func.id](walk(node.args[0]))
         raise ValueError(f"unsupported expression {value!r}")
 
     return walk(ast.parse(value, mode="eval"))
@@ -81,6 +95,29 @@ def _number(x: float) -> sp.Expr:
 def _in(frame, components) -> me.Vector:
     x, y, z = (_number(c) for c in components)
     return x * frame.x + y * frame.y + z * frame.z
+
+
+def _expressions_in(frame, components) -> me.Vector:
+    x, y, z = (sp.sympify(c) for c in components)
+    return x * frame.x + y * frame.y + z * frame.z
+
+
+def _along_joint(body, parent, value, label, N) -> list:
+    """The loads of an effort ``value`` along a body's joint, reaction on the parent."""
+    if body["kind"] == "revolute":
+        torque = value * body["axis"]
+        return [(body["frame"], torque)] + ([(parent["frame"], -torque)] if parent else [])
+    if body["kind"] != "prismatic":
+        raise ValueError("an effort along a fixed joint")
+    force = value * body["axis"]
+    loads = [(body["origin"], force)]
+    if parent is not None:
+        # the point of the parent that coincides with the body's origin
+        coincident = body["joint_point"].locatenew(f"C_{label}",
+                                                   body["displacement"] * body["axis"])
+        coincident.v2pt_theory(body["joint_point"], N, parent["frame"])
+        loads.append((coincident, -force))
+    return loads
 
 
 def oracle_equations(robot_yaml_text: str):
@@ -136,24 +173,43 @@ def oracle_equations(robot_yaml_text: str):
 
     for name, item in actuator_items:
         body = built[item["joint"]]
-        tau = taus[name]
-        parent = built.get(body["parent"])
-        if body["kind"] == "revolute":
-            torque = tau * body["axis"]
-            loads.append((body["frame"], torque))
-            if parent is not None:
-                loads.append((parent["frame"], -torque))
-        elif body["kind"] == "prismatic":
-            force = tau * body["axis"]
-            loads.append((body["origin"], force))
-            if parent is not None:
-                # the point of the parent that coincides with the body's origin
-                coincident = body["joint_point"].locatenew(
-                    f"C_{item['joint']}", body["displacement"] * body["axis"])
-                coincident.v2pt_theory(body["joint_point"], N, parent["frame"])
-                loads.append((coincident, -force))
-        else:
-            raise ValueError("an actuator on a fixed joint")
+        loads += _along_joint(body, built.get(body["parent"]), taus[name], item["joint"], N)
+
+    # joint forces: damping, smoothed Coulomb friction, springs
+    rates = dict(zip(qs, us))
+    for item in data["bodies"]:
+        joint = item["joint"]
+        if joint["type"] == "fixed":
+            continue
+        value = {key: evaluate(joint.get(key, default), params) for key, default in
+                 (("damping", 0), ("friction", 0), ("friction_velocity", 0.01),
+                  ("stiffness", 0), ("rest", 0))}
+        theta = displacements[item["name"]]
+        w = sum(theta.diff(q) * u for q, u in rates.items())
+        effort = (-value["damping"] * w
+                  - value["friction"] * sp.tanh(w / value["friction_velocity"])
+                  - value["stiffness"] * (theta - value["rest"]))
+        if effort != 0:
+            body = built[item["name"]]
+            loads += _along_joint(body, built.get(body["parent"]), effort,
+                                  f"{item['name']}_passive", N)
+
+    # external loads
+    names = {**params, **by_name, "t": t}
+    names.update({"d" + name: u for name, u in zip(coordinate_names, us)})
+    for k, entry in enumerate(data.get("loads") or []):
+        body = built[entry["body"]]
+        frame = N if entry.get("frame", "world") == "world" else body["frame"]
+        if "force" in entry:
+            point = body["origin"].locatenew(f"P_load{k}",
+                                             _in(body["frame"], _vector3(entry.get("point"),
+                                                                         params)))
+            point.v2pt_theory(body["origin"], N, body["frame"])
+            loads.append((point, _expressions_in(frame, [evaluate(c, names)
+                                                         for c in entry["force"]])))
+        if "torque" in entry:
+            loads.append((body["frame"], _expressions_in(frame, [evaluate(c, names)
+                                                                 for c in entry["torque"]])))
 
     kd = [q.diff(t) - u for q, u in zip(qs, us)]
     kane = me.KanesMethod(N, q_ind=qs, u_ind=us, kd_eqs=kd)
@@ -165,12 +221,13 @@ def oracle_equations(robot_yaml_text: str):
     dq_symbols = [sp.Symbol("d" + name, real=True) for name in coordinate_names]
     replace = {**dict(zip(us, dq_symbols)), **dict(zip(qs, q_symbols))}
     M = sp.Matrix(M).xreplace(replace)
-    forcing = sp.Matrix(forcing).xreplace(replace)
+    forcing = sp.Matrix(forcing).xreplace(replace).xreplace({t: TIME})
     tau_symbols = [taus[name] for name, _ in actuator_items]
     B = forcing.jacobian(tau_symbols) if tau_symbols else sp.zeros(len(qs), 0)
     F = forcing.xreplace({tau: 0 for tau in tau_symbols})
     for matrix in (M, F, B):
-        leftover = {s for s in matrix.free_symbols if s not in set(q_symbols) | set(dq_symbols)}
+        leftover = {s for s in matrix.free_symbols
+                    if s not in set(q_symbols) | set(dq_symbols) | {TIME}}
         leftover |= matrix.atoms(sp.Derivative, sp.core.function.AppliedUndef)
         assert not leftover, f"oracle left {leftover} in its equations"
     return q_symbols, dq_symbols, tau_symbols, M, F, B

@@ -14,7 +14,14 @@ hence invertible, map from coordinates to displacements).  The only
 expression forms written are ``c*name`` terms joined by `` + `` / `` - ``,
 which ``tests/mechanics_oracle.py`` reads independently.
 
-    python tests/random_robots.py [seed]     # print a sample
+``random_robot_yaml(seed, forces=True)`` adds joint damping, friction (with
+and without its own friction_velocity), springs and a ``loads`` section
+(forces and torques of t, the coordinates and rates, in world or body
+axes, at random points), drawn from a second random stream, so the robot
+itself is the same as without them.  Load expressions are sums of
+``c*name``, ``c*sin(c*t)`` and ``c*cos(name)`` terms.
+
+    python tests/random_robots.py [seed] [forces]     # print a sample
 """
 from __future__ import annotations
 
@@ -108,9 +115,57 @@ def _term(coefficient: float, name: str, first: bool) -> str:
     return f" {sign} {body}"
 
 
-def random_robot_yaml(seed: int) -> str:
-    """A valid robot YAML text, the same for the same seed."""
+def _joint_forces(rng: random.Random) -> list[str]:
+    """Some of damping, friction (maybe with friction_velocity), stiffness and rest."""
+    keys = []
+    if rng.random() < 0.6:
+        keys.append(f"damping: {fmt(rng.uniform(0.05, 2.0), 3)}")
+    if rng.random() < 0.6:
+        keys.append(f"friction: {fmt(rng.uniform(0.1, 3.0), 3)}")
+        if rng.random() < 0.7:
+            keys.append(f"friction_velocity: {fmt(rng.choice([0.05, 0.2, 0.5, 1.5]), 3)}")
+    if rng.random() < 0.6:
+        keys.append(f"stiffness: {fmt(rng.uniform(0.5, 30.0), 3)}")
+        if rng.random() < 0.7:
+            keys.append(f"rest: {fmt(rng.uniform(-1.0, 1.0), 3)}")
+    return keys
+
+
+def _load_expression(rng: random.Random, coordinates: list[str]) -> str:
+    """c0 + c1*sin(c2*t) + c3*q + c4*dq + c5*cos(q), some terms left out."""
+    text = fmt(rng.uniform(-5, 5), 3)
+    if rng.random() < 0.5:
+        text += _term(rng.uniform(-3, 3), f"sin({fmt(rng.uniform(0.5, 4), 3)}*t)", False)
+    if coordinates and rng.random() < 0.5:
+        text += _term(rng.uniform(-3, 3), rng.choice(coordinates), False)
+    if coordinates and rng.random() < 0.5:
+        text += _term(rng.uniform(-2, 2), "d" + rng.choice(coordinates), False)
+    if coordinates and rng.random() < 0.3:
+        text += _term(rng.uniform(-2, 2), f"cos({rng.choice(coordinates)})", False)
+    return text
+
+
+def _loads(rng: random.Random, bodies: list[str], coordinates: list[str]) -> list[str]:
+    lines = ["loads:"]
+    for _ in range(rng.randint(1, 3)):
+        entry = [f"body: {rng.choice(bodies)}"]
+        kinds = rng.choice([("force",), ("torque",), ("force", "torque")])
+        if "force" in kinds and rng.random() < 0.7:
+            entry.append("point: " + vec([rng.uniform(-0.5, 0.5) for _ in range(3)], 4))
+        for kind in kinds:
+            components = [_load_expression(rng, coordinates) if rng.random() < 0.7 else "0"
+                          for _ in range(3)]
+            entry.append(f"{kind}: [" + ", ".join(components) + "]")
+        if rng.random() < 0.7:
+            entry.append(f"frame: {rng.choice(['world', 'body'])}")
+        lines.append("  - {" + ", ".join(entry) + "}")
+    return lines
+
+
+def random_robot_yaml(seed: int, forces: bool = False) -> str:
+    """A valid robot YAML text, the same for the same seed (and ``forces``)."""
     rng = random.Random(seed)
+    frng = random.Random(f"forces {seed}")      # the forces' own stream
     n_bodies = rng.randint(1, MAX_BODIES)
     prefix = rng.choice(["q", "q", "q", "x", "th"])
     linear_combinations = rng.random() < 0.35
@@ -149,8 +204,20 @@ def random_robot_yaml(seed: int) -> str:
     names = [f"{body_prefix}{i + 1}" for i in range(n_bodies)]
     next_default = 0                                  # loader's default-coordinate iterator
     earlier_moving: list[str] = []                    # coordinates of earlier moving joints
+    parents: list[str] = []
+    last_default: int | None = None                   # joints taking defaults form a chain
+
+    def descends(i: int, ancestor: int | None) -> bool:
+        name = parents[i]
+        while ancestor is not None and name != "ground":
+            if name == names[ancestor]:
+                return True
+            name = parents[names.index(name)]
+        return ancestor is None
+
     for i in range(n_bodies):
         parent = "ground" if i == 0 or rng.random() < 0.3 else names[rng.randrange(i)]
+        parents.append(parent)
         kind = kinds[i]
         joint = [f"type: {kind}"]
         if kind != "fixed":
@@ -176,11 +243,15 @@ def random_robot_yaml(seed: int) -> str:
                 for other in others:
                     displacement += _term(rng.choice([-1.0, -1.0, 1.0, 0.5, -0.25]), other, False)
             if (displacement == own and next_default < n
-                    and file_order[next_default] == own and rng.random() < 0.5):
+                    and file_order[next_default] == own and rng.random() < 0.5
+                    and descends(i, last_default)):  # (after the draw: same robots)
                 next_default += 1                     # omit it: the loader's default
+                last_default = i
             else:
                 joint.append(f"displacement: {displacement}")
             earlier_moving.append(own)
+            if forces:
+                joint += _joint_forces(frng)
         mass = rng.uniform(0.5, 5)
         lines.append(f"  - name: {names[i]}")
         if parent != "ground" or rng.random() < 0.5:
@@ -198,10 +269,13 @@ def random_robot_yaml(seed: int) -> str:
         rng.shuffle(order)
     for body in order:
         lines.append(f"  tau_{names[body]}: {{joint: {names[body]}}}")
+    if forces:
+        lines += _loads(frng, names, coordinate_names)
     return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":
     import sys
 
-    print(random_robot_yaml(int(sys.argv[1]) if len(sys.argv) > 1 else 0), end="")
+    print(random_robot_yaml(int(sys.argv[1]) if len(sys.argv) > 1 else 0,
+                            forces=len(sys.argv) > 2), end="")

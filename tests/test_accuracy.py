@@ -11,7 +11,9 @@ import pytest
 
 from anadyn_cli.services import accuracy
 from anadyn_cli.services import simulate
-from anadyn_cli.numeric.build import prepare
+from anadyn_cli.numeric.build import numeric_model
+from anadyn_cli.numeric.integrators import state_error
+from anadyn_cli.numeric.settings import output_grid
 from anadyn_cli.cli import main
 
 COLUMNS = ["method", "ran", "rtol", "atol", "status", "max_error", "final_error", "wall_s",
@@ -31,21 +33,22 @@ def test_error_is_absolute_for_small_states_and_relative_for_large_ones():
     x = ref.copy()
     x[1, 0] += 1e-6            # small state: absolute error 1e-6
     x[2, 1] += 2e-3            # large state (max |x| = 200): relative 1e-5
-    assert accuracy.state_error(x, ref) == (pytest.approx(1e-5), pytest.approx(1e-5))
+    assert state_error(x, ref) == (pytest.approx(1e-5), pytest.approx(1e-5))
     x[2, 1] = ref[2, 1]
-    assert accuracy.state_error(x, ref) == (pytest.approx(1e-6), 0.0)
+    assert state_error(x, ref) == (pytest.approx(1e-6), 0.0)
 
 
 def test_a_run_over_budget_stops_there():
-    info, compiled = prepare("robots/rr.yaml")
-    grid = simulate.output_grid(15.0, 0.01)
-    solution, _, over = accuracy.run(compiled, simulate.initial_state(info), grid, "RK45",
-                                     1e-3, 1e-5, budget=2_000)
-    assert solution is None
+    compiled = numeric_model("robots/rr.yaml")
+    grid = output_grid(15.0, 0.01)
+    solution, _ = accuracy.run(compiled.problem(), compiled.initial_state(), grid, "RK45",
+                               1e-3, 1e-5, budget=2_000)
+    over = solution.over_budget
+    assert not solution.success
     assert over.calls == 2_000 and 0 < over.t < 1.0       # stiff: 2,000 calls go < 1 s
-    solution, _, over = accuracy.run(compiled, simulate.initial_state(info), grid, "Radau",
-                                     1e-3, 1e-5, budget=2_000)
-    assert over is None and solution.success and solution.rhs_calls < 2_000
+    solution, _ = accuracy.run(compiled.problem(), compiled.initial_state(), grid, "Radau",
+                               1e-3, 1e-5, budget=2_000)
+    assert solution.over_budget is None and solution.success and solution.rhs_calls < 2_000
 
 
 # ----------------------------------------------------------------------------
@@ -122,7 +125,7 @@ def test_unknown_method_and_bad_tolerance(capsys):
 def true_error(compiled, result):
     refs, _ = accuracy.references(compiled, result.x[0], result.t, count=1, exclude=("auto",),
                                   candidates=(("DOP853", 1e-11), ("Radau", 1e-11)))
-    return accuracy.state_error(result.x, refs[0].x)[0]
+    return state_error(result.x, refs[0].x)[0]
 
 
 @pytest.mark.parametrize("path, rtol, worse_than", [
@@ -134,9 +137,9 @@ def true_error(compiled, result):
     ("configs/near_singular.yaml", 1e-6, 10),
 ])
 def test_estimate_error_matches_the_true_error(path, rtol, worse_than):
-    info, compiled = prepare(path)
-    result = simulate.simulate(info, compiled=compiled, rtol=rtol, atol=rtol * 1e-2)
-    estimate = accuracy.estimate_error(result, compiled)
+    compiled = numeric_model(path)
+    result = simulate.simulate(compiled, rtol=rtol, atol=rtol * 1e-2, estimate_error=True)
+    estimate = result.estimated_error
     true = true_error(compiled, result)
     assert true > worse_than * rtol
     assert estimate == pytest.approx(true, rel=0.05)

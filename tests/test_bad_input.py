@@ -38,7 +38,7 @@ FUNCTIONS = ("abs, acos, asin, atan, atan2, cos, cosh, exp, log, max, min, sign,
              "sqrt, tan, tanh")
 ONLY = f"use numbers, names, + - * / ** and the functions {FUNCTIONS}"
 TOP = ("name, description, parameters, gravity, coordinates, bodies, actuators, controller, "
-       "trajectory, simulation")
+       "loads, trajectory, simulation, loops, constraints")
 RR_PARAMETERS = "L1, L2, g, m1, m2, pi"          # what a constant of rr.yaml may use
 
 
@@ -123,13 +123,14 @@ CASES = [
          "joint, mass, com, inertia"),
     case("unknown-joint-key", rr("origin: [L1, 0, 0]", "orign: [L1, 0, 0]"),
          "{file}:20: bodies[1].joint.orign: unknown key; did you mean 'origin'? allowed: type, "
-         "axis, origin, rpy, displacement"),
+         "axis, origin, rpy, displacement, limits, damping, friction, friction_velocity, "
+         "stiffness, rest"),
     case("unknown-inertia-key", rr("{iyy: m2*L2**2/12,", "{iyyy: m2*L2**2/12,"),
          "{file}:23: bodies[1].inertia.iyyy: unknown key; did you mean 'iyy'? allowed: ixx, "
          "iyy, izz, ixy, ixz, iyz"),
     case("unknown-coordinate-key", rr("q2: {initial: pi/6}", "q2: {inital: pi/6}"),
          "{file}:10: coordinates.q2.inital: unknown key; did you mean 'initial'? allowed: "
-         "initial, rate"),
+         "initial, rate, dependent"),
     case("unknown-simulation-key", rr("t_end: 15", "t_ned: 15"),
          "{file}:35: simulation.t_ned: unknown key; did you mean 't_end'? allowed: t_end, "
          "output_step, method, rtol, atol"),

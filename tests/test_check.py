@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from anadyn_cli.services import check as stability
-from anadyn_cli.numeric.build import prepare
+from anadyn_cli.numeric.build import numeric_model
 from anadyn_cli.cli import main
 
 STIFF = "stiffness: stiff (explicit methods are stability-limited)"
@@ -104,8 +104,8 @@ def test_conditioning_threshold(capsys, tmp_path):
 def test_the_balance_catches_a_wrong_actuator_power(monkeypatch):
     """Power taken as tau . dq (forgetting B^T) must break the RR balance: absolute angles
     make B = [[1, -1], [0, 1]], so T12z does work through dq2 - dq1, not dq2."""
-    info, compiled = prepare("robots/rr.yaml")
-    right = stability.check(info, compiled, t_end=3.0)
+    compiled = numeric_model("robots/rr.yaml"); info = compiled.info
+    right = stability.check(compiled, t_end=3.0)
     assert right.passed and right.energy_error < 1e-8
 
     def wrong(compiled, t, x):
@@ -114,7 +114,7 @@ def test_the_balance_catches_a_wrong_actuator_power(monkeypatch):
         return float(x[n:] @ tau)
 
     monkeypatch.setattr(stability, "actuator_power", wrong)
-    broken = stability.check(info, compiled, t_end=3.0)
+    broken = stability.check(compiled, t_end=3.0)
     assert not broken.passed and broken.energy_error > 1e-3
 
 

@@ -15,7 +15,7 @@ def test_rr_equations_print_the_chapter_form(capsys):
 def test_lagrange_prints_the_same_equations(capsys):
     main(["equations", "robots/rr.yaml"])
     kane = capsys.readouterr().out.splitlines()[1:]
-    assert main(["equations", "robots/rr.yaml", "--method", "lagrange"]) == 0
+    assert main(["equations", "robots/rr.yaml", "--formulation", "lagrange"]) == 0
     assert capsys.readouterr().out.splitlines()[1:] == kane
 
 
@@ -47,5 +47,5 @@ def test_malformed_yaml_is_one_line_and_exit_2(tmp_path, capsys):
 
 
 def test_unknown_method_is_a_usage_error(capsys):
-    assert main(["equations", "robots/rr.yaml", "--method", "newton"]) == 2
+    assert main(["equations", "robots/rr.yaml", "--formulation", "newton"]) == 2
     assert "newton" in capsys.readouterr().err

@@ -1,7 +1,7 @@
 """`anadyn compare`: Lagrange against Kane, and that it catches a wrong term.
 
 The wrong terms are injected into Lagrange's equations through
-``formulations.METHODS`` (what ``derive`` calls), with a private derivation
+``formulations.FORMULATIONS`` (what ``derive`` calls), with a private derivation
 cache so that the patched code neither comes from nor goes to a real one.
 """
 import csv
@@ -15,7 +15,7 @@ import sympy as sp
 
 from anadyn_cli import robot_from_text
 from anadyn_cli.symbolic import formulations
-from anadyn_cli.numeric.build import compile_robot
+from anadyn_cli.numeric.build import numeric_model
 from anadyn_cli.cli import main
 from anadyn_cli.services.compare import symbolic_check, trajectory_check
 from anadyn_cli.symbolic.eom import EquationsOfMotion
@@ -35,7 +35,7 @@ def _private_cache(tmp_path, monkeypatch):
 
 def inject(monkeypatch, part: str, term):
     """Lagrange's ``part`` (M or F) gets ``term(eom)`` added to its first entry."""
-    original = formulations.METHODS["lagrange"]
+    original = formulations.FORMULATIONS["lagrange"]
 
     def wrong(robot, kin):
         eom = original(robot, kin)
@@ -43,7 +43,7 @@ def inject(monkeypatch, part: str, term):
         matrix[0] += term(eom)
         return EquationsOfMotion(**{**eom.__dict__, part: sp.ImmutableMatrix(matrix)})
 
-    monkeypatch.setitem(formulations.METHODS, "lagrange", wrong)
+    monkeypatch.setitem(formulations.FORMULATIONS, "lagrange", wrong)
 
 
 def test_compare_passes_on_every_shipped_robot(tmp_path, monkeypatch, capsys):
@@ -108,10 +108,10 @@ def test_trajectory_check_sees_a_different_motion(tmp_path):
     text = RR.read_text()
     robot = robot_from_text(text, "rr.yaml")
     stronger = robot_from_text(text.replace("g: 9.81", "g: 9.82"), "rr.yaml")
-    ours, other = compile_robot(robot, "kane"), compile_robot(stronger, "lagrange")
-    same, failure = trajectory_check(robot, ours, compile_robot(robot, "lagrange"), 1e-7)
+    ours, other = numeric_model(robot, "kane"), numeric_model(stronger, "lagrange")
+    same, failure = trajectory_check(ours, numeric_model(robot, "lagrange"), 1e-7)
     assert same.passed and same.max_rel == 0 and failure == ""
-    differs, failure = trajectory_check(robot, ours, other, 1e-7)
+    differs, failure = trajectory_check(ours, other, 1e-7)
     assert not differs.passed and differs.max_rel > 1e-6 and failure == ""
 
 
@@ -160,7 +160,7 @@ def test_samples_cover_a_range_around_the_start():
     from anadyn_cli.model.info import RobotInfo
 
     robot = robot_from_text((ROOT / "robots" / "rrt.yaml").read_text(), "rrt.yaml")
-    compiled = compile_robot(robot, "kane")
+    compiled = numeric_model(robot, "kane")
     q, dq, tau = sample_states(RobotInfo.from_robot(robot), compiled, 200)
     assert q.shape == dq.shape == (3, 200) and tau.shape == (3, 200)
     assert np.all(np.abs(q[0] - np.pi / 18) <= np.pi) and np.ptp(q[0]) > np.pi

@@ -21,7 +21,8 @@ import pytest
 
 from anadyn_cli.services import accuracy
 from anadyn_cli.services import simulate
-from anadyn_cli.numeric.build import prepare
+from anadyn_cli.numeric.build import numeric_model
+from anadyn_cli.numeric.settings import output_grid
 
 # file, test horizon (None: the file's), rtol, RHS-call budget [measured calls]
 SCENES = [
@@ -49,8 +50,8 @@ def reference_for(compiled, result, rtol):
 @pytest.mark.parametrize("path, t_end, rtol, budget", SCENES,
                          ids=[s[0].split("/")[-1][:-5] for s in SCENES])
 def test_auto_within_ten_times_the_tolerance_and_the_budget(path, t_end, rtol, budget):
-    info, compiled = prepare(path)
-    result = simulate.simulate(info, compiled=compiled, method="auto", rtol=rtol,
+    compiled = numeric_model(path)
+    result = simulate.simulate(compiled, method="auto", rtol=rtol,
                                atol=rtol * 1e-2, t_end=t_end)
     solution = result.solution
     assert solution.success, solution.message
@@ -64,8 +65,8 @@ def test_auto_within_ten_times_the_tolerance_and_the_budget(path, t_end, rtol, b
 
 
 def test_the_long_horizon_is_a_real_1000_s_run():
-    info, compiled = prepare("configs/long_horizon_1000s.yaml")
-    result = simulate.simulate(info, compiled=compiled, rtol=1e-6, atol=1e-8)
+    compiled = numeric_model("configs/long_horizon_1000s.yaml")
+    result = simulate.simulate(compiled, rtol=1e-6, atol=1e-8)
     assert result.settings.t_end == 1000.0
     assert len(result.t) == 100_001 and result.t[-1] == 1000.0
     assert np.ptp(result.x[-1000:, 0]) > 0.5         # still swinging in the last 10 s
@@ -74,11 +75,12 @@ def test_the_long_horizon_is_a_real_1000_s_run():
 def test_the_stiff_scenes_would_cost_an_explicit_method_dearly():
     """The point of the stiff scenes: RK45 stalls on its call budget within seconds."""
     for path in ("configs/stiff_rr_gains1000.yaml", "configs/stiff_mass_ratio_1e4.yaml"):
-        info, compiled = prepare(path)
-        grid = simulate.output_grid(15.0, 0.01)
-        solution, _, over = accuracy.run(compiled, simulate.initial_state(info), grid, "RK45",
-                                         1e-3, 1e-5, budget=5_000)
-        assert solution is None and over.t < 0.1, path     # 5,000 calls cover < 0.1 of 15 s
+        compiled = numeric_model(path)
+        grid = output_grid(15.0, 0.01)
+        solution, _ = accuracy.run(compiled.problem(), compiled.initial_state(), grid, "RK45",
+                                   1e-3, 1e-5, budget=5_000)
+        over = solution.over_budget
+        assert not solution.success and over.t < 0.1, path     # 5,000 calls cover < 0.1 of 15 s
 
 
 @pytest.mark.parametrize("path", ["configs/stiff_rr_gains1000.yaml",
@@ -94,8 +96,8 @@ def test_each_scene_says_what_it_tests(path):
 
 
 def test_the_mass_ratio_is_ten_thousand():
-    _, compiled = prepare("configs/stiff_mass_ratio_1e4.yaml")
-    M, _, _ = compiled.mfb(np.zeros(2), np.zeros(2))
+    compiled = numeric_model("configs/stiff_mass_ratio_1e4.yaml")
+    M, _, _ = compiled.mfb(0.0, np.zeros(2), np.zeros(2))
     # absolute angles, unit lengths: M22 = m2 / 3, M11 = m1 / 3 + m2
     m2 = 3 * M[1, 1]
     m1 = 3 * (M[0, 0] - m2)

@@ -17,6 +17,7 @@ from sympy.physics import mechanics as me
 
 from anadyn_cli import robot_from_text
 from anadyn_cli.cli import main
+from anadyn_cli.numeric.build import numeric_model
 from anadyn_cli.services.inverse import InverseDynamics, inverse
 from anadyn_cli.numeric.trajectory import motion
 
@@ -146,7 +147,7 @@ def scale(tau):
 # -- efforts -------------------------------------------------------------------------
 @pytest.mark.parametrize("name", ["rr", "rrt"])
 def test_efforts_agree_with_the_mechanics_oracle(name, oracles):
-    result = inverse(robot(name), "kane", roundtrip=False, use_cache=False)
+    result = inverse(numeric_model(robot(name), "kane"), roundtrip=False)
     times = np.arange(16.0)
     ours = result.dynamics.efforts(times)[3]
     theirs = oracle_efforts(oracles[name], *cycloid(*CHAPTER[name], times))
@@ -159,8 +160,8 @@ def test_efforts_agree_with_the_mechanics_oracle(name, oracles):
 
 @pytest.mark.parametrize("name", ["rr", "rrt"])
 def test_kane_and_lagrange_efforts_agree(name):
-    kane = inverse(robot(name), "kane", roundtrip=False, use_cache=False)
-    lagrange = inverse(robot(name), "lagrange", roundtrip=False, use_cache=False)
+    kane = inverse(numeric_model(robot(name), "kane"), roundtrip=False)
+    lagrange = inverse(numeric_model(robot(name), "lagrange"), roundtrip=False)
     assert np.all(np.abs(kane.efforts - lagrange.efforts) <= 1e-10 * scale(kane.efforts))
 
 
@@ -180,7 +181,7 @@ def test_at_rest_the_efforts_are_the_static_gravity_load():
     # the chapter's motions start and end at rest (zero rate and acceleration)
     for name, static in (("rr", lambda q: rr_static(q[0], q[1])),
                          ("rrt", lambda q: rrt_static(q[1], q[2]))):
-        result = inverse(robot(name), roundtrip=False, use_cache=False)
+        result = inverse(numeric_model(robot(name)), roundtrip=False)
         start, end, _ = CHAPTER[name]
         for row, pose in ((0, start), (-1, end)):
             assert np.allclose(result.efforts[row], static(pose), rtol=1e-12, atol=1e-12)
@@ -188,14 +189,14 @@ def test_at_rest_the_efforts_are_the_static_gravity_load():
     still = "trajectory: {kind: expression, duration: 2, expressions: {q1: 0.3, q2: -1.1}}"
     text = edited(RR_TEXT, "trajectory: {kind: cycloidal, duration: 15, to: {q1: pi/6, q2: pi/3}}",
                   still)
-    result = inverse(robot("rr", text), roundtrip=False, use_cache=False)
+    result = inverse(numeric_model(robot("rr", text)), roundtrip=False)
     assert np.all(result.dq == 0) and np.all(result.ddq == 0)
     assert np.allclose(result.efforts, rr_static(0.3, -1.1), rtol=1e-12, atol=1e-12)
     text = edited(RRT_TEXT, "trajectory: {kind: cycloidal, duration: 15, "
                             "to: {q1: pi/3, q2: pi/3, q3: 0.3}}",
                   "trajectory: {kind: expression, duration: 2, "
                   "expressions: {q1: 2, q2: -0.7, q3: 0.6}}")
-    result = inverse(robot("rrt", text), roundtrip=False, use_cache=False)
+    result = inverse(numeric_model(robot("rrt", text)), roundtrip=False)
     assert np.allclose(result.efforts, rrt_static(-0.7, 0.6), rtol=1e-12, atol=1e-12)
 
 
@@ -238,7 +239,7 @@ def test_round_trip_passes_and_files_are_written(name, tmp_path, capsys):
     efforts = {"rr": ["T01z", "T12z"], "rrt": ["T01x", "T12y", "F23z"]}[name]
     assert header.split(",") == ["t", *names, *("d" + n for n in names),
                                  *("dd" + n for n in names), *efforts]
-    assert len(rows) == 1501 and rows[-1].startswith("15,")
+    assert len(rows) == 1501 and rows[-1].startswith("15.0,")
     first = [float(v) for v in rows[0].split(",")]
     assert first[1:1 + len(names)] == list(CHAPTER[name][0])   # full precision
     table = {"rr": ["       t (s)    T01z (N·m)    T12z (N·m)",
@@ -264,12 +265,12 @@ def test_round_trip_misses_a_tight_tolerance(tmp_path, capsys):
 
 def test_round_trip_catches_slightly_wrong_efforts(monkeypatch):
     """Efforts off by one part in a million make the motion miss by more than 1e-6."""
-    result = inverse(robot("rr"), roundtrip=True, use_cache=False)
+    result = inverse(numeric_model(robot("rr")), roundtrip=True)
     assert result.roundtrip.passed
     exact = InverseDynamics.effort_at
     monkeypatch.setattr(InverseDynamics, "effort_at",
                         lambda self, t: exact(self, t) * (1 + 1e-6))
-    wrong = inverse(robot("rr"), roundtrip=True, use_cache=False)
+    wrong = inverse(numeric_model(robot("rr")), roundtrip=True)
     assert not wrong.roundtrip.passed and wrong.roundtrip.max_error > 1e-6
 
 

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from anadyn_cli.output import files as output
+from anadyn_cli import files as output
+from anadyn_cli.output import plots
 from anadyn_cli.cli import main
 from anadyn_cli.errors import ModelError
 
@@ -181,7 +182,7 @@ def test_singular_start_keeps_earlier_simulate_results(tmp_path, capsys):
                    f"{out / 'simulate.partial.csv'}\n")
     assert (code, text) == (3, "")
     after = files(out)
-    assert after.pop("simulate.partial.csv").startswith(b"t,s,q1,ds,dq1\n0,0,0,0,0\n")
+    assert after.pop("simulate.partial.csv").startswith(b"t,s,q1,ds,dq1\n0.0,0.0,0.0,0.0,0.0\n")
     assert after == before
 
 
@@ -243,7 +244,7 @@ def test_writers_leave_only_their_files(tmp_path):
     output.write_csv(tmp_path / "a.csv", ["t", "x"], [t, t**2])
     output.write_json(tmp_path / "a.json", {"rows": 11, "error": np.float64(1e-9)})
     output.write_text(tmp_path / "a.txt", "done\n")
-    output.write_plot(tmp_path / "a.png", t, [("x", [("x", t**2)])], "title")
+    plots.write_plot(tmp_path / "a.png", t, [("x", [("x", t**2)])], "title")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv", "a.json", "a.png", "a.txt"]
     rows = np.loadtxt(tmp_path / "a.csv", delimiter=",", skiprows=1)
     assert np.array_equal(rows, np.column_stack([t, t**2]))      # full double precision

@@ -28,7 +28,8 @@ from anadyn_cli.cli import main
 from anadyn_cli.model import expressions
 
 REPO = Path(__file__).resolve().parent.parent
-ROBOTS = {name: (REPO / "robots" / f"{name}.yaml").read_text() for name in ("rr", "rrt")}
+ROBOTS = {name: (REPO / "robots" / f"{name}.yaml").read_text()
+          for name in ("rr", "rrt", "rrt_friction")}
 
 PAYLOADS = [
     "__import__('os').system('touch MARKER')",
@@ -86,6 +87,9 @@ def expression_fields(data: dict) -> list[tuple[tuple, str]]:
                 add(("bodies", b, "joint", key, i), f"bodies[{b}].joint.{key}[{i}]")
         if joint["type"] != "fixed":                  # displacement: optional, absent in rrt
             add(("bodies", b, "joint", "displacement"), f"bodies[{b}].joint.displacement")
+        for key in ("damping", "friction", "friction_velocity", "stiffness", "rest"):
+            if key in joint:                          # joint forces: rrt_friction
+                add(("bodies", b, "joint", key), f"bodies[{b}].joint.{key}")
         add(("bodies", b, "mass"), f"bodies[{b}].mass")
         for i, _ in enumerate(body.get("com", [])):
             add(("bodies", b, "com", i), f"bodies[{b}].com[{i}]")
@@ -104,6 +108,10 @@ def expression_fields(data: dict) -> list[tuple[tuple, str]]:
     for key in ("t_end", "output_step", "rtol", "atol"):
         if key in data.get("simulation", {}):
             add(("simulation", key), f"simulation.{key}")
+    for k, load in enumerate(data.get("loads", [])):
+        for key in ("point", "force", "torque"):
+            for i, _ in enumerate(load.get(key, [])):
+                add(("loads", k, key, i), f"loads[{k}].{key}[{i}]")
     return fields
 
 
@@ -202,12 +210,15 @@ def refused(capsys, tmp: Path, robot: str, keys: tuple, name: str, payload: str)
 def test_every_field_is_found():
     """The field list is not silently short (the README's keys, in both files)."""
     names = {(robot, name) for robot, _, name in FIELDS}
-    assert len(FIELDS) == len(names) == 48 + 70
+    assert len(FIELDS) == len(names) == 48 + 70 + 89
     for expected in [("rr", "gravity[1]"), ("rr", "coordinates.q2.rate"),
                      ("rr", "bodies[1].joint.origin[0]"), ("rr", "bodies[0].inertia.izz"),
                      ("rr", "controller.gains.q2f"), ("rr", "trajectory.duration"),
                      ("rrt", "bodies[0].joint.displacement"), ("rrt", "bodies[2].mass"),
                      ("rrt", "controller.laws.F23z"), ("rrt", "simulation.output_step"),
+                     ("rrt_friction", "bodies[2].joint.friction_velocity"),
+                     ("rrt_friction", "bodies[1].joint.rest"),
+                     ("rrt_friction", "loads[0].force[1]"), ("rrt_friction", "loads[0].point[2]"),
                      *CROSS]:
         assert expected in names
 

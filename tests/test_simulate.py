@@ -37,7 +37,7 @@ from scipy.special import ellipk
 
 from anadyn_cli import load_robot, robot_from_text
 from anadyn_cli.services import simulate as service
-from anadyn_cli.numeric.build import compile_robot
+from anadyn_cli.numeric.build import numeric_model
 from anadyn_cli.cli import main
 
 from mechanics_oracle import oracle_equations
@@ -139,7 +139,7 @@ def reference(name: str) -> np.ndarray:
 
 @functools.lru_cache(maxsize=None)
 def default_run(name: str, formulation: str = "kane") -> service.SimulationResult:
-    return service.simulate(load_robot(ROBOTS / f"{name}.yaml"), formulation)
+    return service.simulate(numeric_model(ROBOTS / f"{name}.yaml", formulation))
 
 
 def without(name: str, *sections: str) -> str:
@@ -227,9 +227,9 @@ def measured_period(t, q, dq) -> float:
 def test_pendulum_period(amplitude, carriage):
     m, L = PENDULUM["m"], PENDULUM["L"]
     robot = robot_from_text(pendulum_text(amplitude, carriage), "pendulum.yaml")
-    result = service.simulate(robot)
+    result = service.simulate(numeric_model(robot))
     assert result.solution.success, result.solution.message
-    assert result.efforts.shape == (0, len(result.t))
+    assert result.efforts.shape == (len(result.t), 0)
     i = 1 if carriage else 0
     n = 2 if carriage else 1
     if carriage:        # the carriage is not pushed along z
@@ -250,8 +250,8 @@ def test_one_coordinate_robot_has_a_square_mass_matrix():
     """M is n x n also for n = 1 (codegen once made it a vector of length 1, and
     np.linalg.solve then reported a 'singular mass matrix' for every 1-DOF robot)."""
     robot = robot_from_text(pendulum_text(0.5, carriage=False), "pendulum.yaml")
-    compiled = compile_robot(robot, "kane", use_cache=False)
-    M, F, B = compiled.mfb(np.array([0.5]), np.array([0.0]))
+    compiled = numeric_model(robot, "kane")
+    M, F, B = compiled.mfb(0.0, np.array([0.5]), np.array([0.0]))
     assert np.shape(M) == (1, 1) and np.shape(F) == (1,) and np.shape(B) == (1, 0)
     m, L = PENDULUM["m"], PENDULUM["L"]
     expected = -m * G * (L / 2) * sin(0.5) / (m * L**2 / 3)
@@ -298,8 +298,8 @@ def rr_energy_by_hand(q, dq):
 def passive_run(case: str):
     text = without("rr", "actuators", "controller", "trajectory") if case == "rr" else ARM_3D
     robot = robot_from_text(text, f"{case}_passive.yaml")
-    compiled = compile_robot(robot, "kane")
-    return service.simulate(robot, compiled=compiled), compiled
+    compiled = numeric_model(robot, "kane")
+    return service.simulate(compiled), compiled
 
 
 @pytest.mark.parametrize("case", ["rr", "arm3d"])
@@ -394,32 +394,35 @@ def test_csv_header_grid_and_full_precision(tmp_path, capsys):
     assert np.array_equal(data[:, 0], np.arange(1501) * 0.01)       # bit for bit
     expected = default_run("rr")                # in memory, same settings
     assert np.array_equal(data[:, 1:5], expected.x)
-    assert np.array_equal(data[:, 5:], expected.efforts.T)
+    assert np.array_equal(data[:, 5:], expected.efforts)
     efforts = np.array([list(rr_laws(x[:2], x[2:]).values()) for x in expected.x])
     assert np.abs(data[:, 5:] - efforts).max() < 1e-9           # the laws, by hand
 
 
 def test_write_round_trips_the_result_exactly(tmp_path):
-    result = service.simulate(load_robot(ROBOTS / "rrt.yaml"), t_end=2.0, output_step=0.03)
+    result = service.simulate(numeric_model(ROBOTS / "rrt.yaml"), t_end=2.0, output_step=0.03)
     service.write(result, tmp_path, plot=False)
     header, data = read_csv(tmp_path / "simulate.csv")
     assert header == ["t", "q1", "q2", "q3", "dq1", "dq2", "dq3", "T01x", "T12y", "F23z"]
     assert np.array_equal(data[:, 0], np.arange(67) * 0.03)        # 66 * 0.03 <= 2
     assert np.array_equal(data[:, 1:7], result.x)
-    assert np.array_equal(data[:, 7:], result.efforts.T)
+    assert np.array_equal(data[:, 7:], result.efforts)
 
 
 def test_table_at_whole_seconds(tmp_path, capsys):
+    """15 s: a row every second (the round step giving at most 15 steps), with units."""
     code, out, _ = run_cli(capsys, ROBOTS / "rr.yaml", "--out", tmp_path, "--no-plot")
     assert code == 0
     lines = out.splitlines()
-    assert lines[0].split() == ["t(s)", "q1", "dq1", "q2", "dq2"]
+    assert lines[0].split() == ["t", "(s)", "q1", "(rad)", "dq1", "(rad/s)", "q2", "(rad)",
+                                "dq2", "(rad/s)"]
     _, data = read_csv(tmp_path / "simulate.csv")
-    for second in range(6):
+    for second in range(16):
         t, q1, q2, dq1, dq2 = data[100 * second, :5]
-        assert lines[1 + second] == "  ".join(f"{v:12.6f}" for v in (t, q1, dq1, q2, dq2))
-    assert lines[7].startswith("method: auto -> odeint: ")
-    assert lines[1].split() == ["0.000000", "-0.174533", "0.000000", "0.523599", "0.000000"]
+        assert lines[1 + second] == "  ".join(
+            [f"{t:>12g}"] + [f"{round(v, 6) + 0.0:>12.6f}" for v in (q1, dq1, q2, dq2)])
+    assert lines[17].startswith("method: auto -> odeint: ")
+    assert lines[1].split() == ["0", "-0.174533", "0.000000", "0.523599", "0.000000"]
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -490,7 +493,7 @@ def test_actuators_without_controller_move_passively_with_zero_efforts(tmp_path,
 @pytest.mark.parametrize("method", METHODS)
 def test_rhs_calls_are_the_calls_made(method):
     robot = load_robot(ROBOTS / "rr.yaml")
-    compiled = compile_robot(robot, "kane")
+    compiled = numeric_model(robot, "kane")
     made = {"rhs": 0, "jacobian": 0}
     rhs, jacobian = compiled.rhs, compiled.jacobian
 
@@ -503,7 +506,7 @@ def test_rhs_calls_are_the_calls_made(method):
         return jacobian(t, x)
 
     compiled.rhs, compiled.jacobian = counted_rhs, counted_jacobian
-    result = service.simulate(robot, compiled=compiled, method=method, t_end=0.5)
+    result = service.simulate(compiled, method=method, t_end=0.5)
     assert result.solution.success
     assert made["rhs"] > 0 and result.solution.rhs_calls == made["rhs"]
     # auto's stiffness analysis evaluates the Jacobian once before the run

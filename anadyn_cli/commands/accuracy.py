@@ -1,11 +1,14 @@
 """anadyn accuracy: work-precision study (error against run time, every method)."""
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import typer
 
-from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir
+from ..errors import ModelError
+from .common import (Formulation, FormulationOpt, OutOpt, PlotFormat, PlotFormatOpt, RobotArg,
+                     out_dir)
 
 
 def accuracy(
@@ -25,9 +28,10 @@ def accuracy(
                                                       "file, else 10]."),
     dt: float = typer.Option(None, "--dt", help="Output step in s (the error grid) "
                                                 "[default: from the file, else 0.01]."),
-    formulation: Method = FormulationOpt,
+    formulation: Formulation = FormulationOpt,
     out: Path = OutOpt,
-    plot: bool = typer.Option(True, help="Write accuracy.png."),
+    plot: bool = typer.Option(True, help="Write accuracy.png (or .svg, .pdf)."),
+    plot_format: PlotFormat = PlotFormatOpt,
     cache: bool = typer.Option(True, help="Reuse derived equations from the cache."),
 ) -> None:
     """Work-precision study: error against run time for every method and tolerance.
@@ -38,17 +42,27 @@ def accuracy(
     """
     import time
 
+    from ..numeric.build import numeric_model
+    from ..output import progress
     from ..services import accuracy as service
-    from ..numeric.build import prepare
 
     start = time.perf_counter()
-    method_list = service.parse_methods(methods)
-    tolerance_list = service.parse_tolerances(tolerances)
-    info, compiled = prepare(robot, formulation.value, use_cache=cache)
-    result = service.study(info, compiled, method_list, tolerance_list, repeats=repeats,
-                           max_calls=max_calls, reference_calls=reference_calls,
-                           t_end=t_end, output_step=dt)
-    written = service.write(result, out_dir(out, info.name), plot=plot)
+    method_list = parse_methods(methods)
+    tolerance_list = parse_tolerances(tolerances)
+    with progress.task(f"preparing the {formulation.value} equations"):
+        model = numeric_model(robot, formulation.value, use_cache=cache)
+    info = model.info
+    with progress.task(f"work-precision study of {info.name} "
+                       f"({len(method_list)} methods x {len(tolerance_list)} tolerances)") as step:
+        step.note("references (two tight runs)")
+        result = service.study(model, method_list, tolerance_list, repeats=repeats,
+                               max_calls=max_calls, reference_calls=reference_calls,
+                               t_end=t_end, output_step=dt,
+                               progress=lambda method, rtol: step.note(f"{method} rtol "
+                                                                       f"{rtol:.0e}"))
+    result.formulation = formulation.value
+    written = service.write(result, out_dir(out, info.name), plot=plot,
+                            plot_format=plot_format.value)
     typer.echo(f"{info.name}: {result.t_end:g} s, error over {len(result.grid)} rows, "
                f"atol = rtol * {service.ATOL_RATIO:g}, time = min of {result.repeats} runs, "
                f"budget {result.max_calls} RHS calls per run")
@@ -56,3 +70,40 @@ def accuracy(
     typer.echo(f"time: references {result.timings['references']:.2f} s, study "
                f"{result.timings['study']:.2f} s; total {time.perf_counter() - start:.2f} s")
     typer.echo("wrote " + ", ".join(str(p) for p in written))
+
+
+def parse_methods(text: str | None) -> tuple[str, ...]:
+    """--methods: comma-separated integrator names (any case)."""
+    from ..numeric.integrators import METHODS
+
+    if not text:
+        return METHODS
+    methods = tuple(m.strip() for m in text.replace(" ", ",").split(",") if m.strip())
+    by_name = {m.lower(): m for m in METHODS}
+    for m in methods:
+        if m.lower() not in by_name:
+            raise ModelError(f"--methods: unknown method {m!r}; choose from "
+                             f"{', '.join(METHODS)}")
+    return tuple(dict.fromkeys(by_name[m.lower()] for m in methods))
+
+
+def parse_tolerances(text: str | None) -> tuple[float, ...]:
+    """--tolerances: comma-separated relative tolerances in 1e-14 .. 1."""
+    from ..services.accuracy import TOLERANCES
+
+    if not text:
+        return TOLERANCES
+    values = []
+    for part in text.replace(" ", ",").split(","):
+        if not part.strip():
+            continue
+        try:
+            value = float(part)
+        except ValueError:
+            raise ModelError(f"--tolerances: {part.strip()!r} is not a number") from None
+        if not (math.isfinite(value) and 1e-14 <= value < 1):
+            raise ModelError(f"--tolerances: {part.strip()} is outside 1e-14 .. 1")
+        values.append(value)
+    if not values:
+        raise ModelError("--tolerances: give at least one relative tolerance")
+    return tuple(sorted(set(values), reverse=True))

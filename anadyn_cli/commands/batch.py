@@ -14,6 +14,10 @@ def batch(
                                                         "[default: all cores]."),
     out: Path = typer.Option(None, "--out", help="Output folder [default: results/NAME/, "
                                                  "NAME the batch file's stem]."),
+    scheduler: str = typer.Option(None, "--scheduler", metavar="ADDRESS",
+                                  help="Run the jobs on a Dask cluster, e.g. "
+                                       "tcp://10.0.0.5:8786 [default: $ANADYN_SCHEDULER, "
+                                       "else local processes]."),
 ) -> None:
     """Run the jobs of CONFIG in parallel processes and judge each against its expectations.
 
@@ -24,17 +28,22 @@ def batch(
     import sys
 
     from ..services import batch as service
+    from ..services import executors
 
     plan = service.load_batch(config)
+    address = executors.scheduler_address(scheduler)
+    client = executors.connect(address) if address is not None else None
     folder = out if out is not None else Path("results") / config.stem
     progress = service.Progress(sys.stdout, service.Progress.wanted(sys.stdout), len(plan.jobs))
     try:
         result = service.run(plan, folder, jobs, on_start=progress.started,
-                             on_done=progress.done)
+                             on_done=progress.done, scheduler=client)
     finally:
         progress.close()
+        if client is not None:
+            client.close()
     written = service.write(result, folder)
     typer.echo(service.table(result))
     typer.echo(service.totals_line(result))
     typer.echo("wrote " + ", ".join(str(p) for p in written))
-    service.check(result)
+    service.raise_if_failed(result)

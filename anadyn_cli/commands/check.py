@@ -5,7 +5,7 @@ from pathlib import Path
 
 import typer
 
-from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir, time_line
+from .common import FormulationOpt, Formulation, OutOpt, RobotArg, out_dir, time_line
 
 
 def check(
@@ -26,7 +26,7 @@ def check(
                                           "energy scale."),
     samples: int = typer.Option(200, "--samples", help="Points along the path where the "
                                                        "Jacobian's eigenvalues are taken."),
-    formulation: Method = FormulationOpt,
+    formulation: Formulation = FormulationOpt,
     out: Path = OutOpt,
     cache: bool = typer.Option(True, help="Reuse derived equations from the cache."),
 ) -> None:
@@ -38,14 +38,19 @@ def check(
     """
     import time
 
+    from ..numeric.build import numeric_model
+    from ..output import progress
     from ..services import check as service
-    from ..numeric.build import prepare
 
     start = time.perf_counter()
-    info, compiled = prepare(robot, formulation.value, use_cache=cache)
-    report = service.check(info, compiled, rtol=rtol, atol=atol, t_end=t_end,
-                           output_step=dt, samples=samples, max_condition=max_condition,
-                           energy_tol=energy_tol)
+    with progress.task(f"preparing the {formulation.value} equations"):
+        model = numeric_model(robot, formulation.value, use_cache=cache)
+    info = model.info
+    with progress.task(f"checking {info.name}: energy balance, eigenvalues, explicit probe, "
+                       "conditioning"):
+        report = service.check(model, rtol=rtol, atol=atol, t_end=t_end,
+                               output_step=dt, samples=samples, max_condition=max_condition,
+                               energy_tol=energy_tol)
     written = service.write(report, out_dir(out, info.name))
     typer.echo(service.text(report))
     typer.echo(time_line(report.timings, start))

@@ -9,7 +9,8 @@ import typer
 RobotArg = typer.Argument(..., help="Robot description (YAML).", show_default=False)
 
 
-class Method(str, Enum):
+class Formulation(str, Enum):
+    """How the equations are derived (never the integrator: that is --method)."""
     kane = "kane"
     lagrange = "lagrange"
 
@@ -17,6 +18,40 @@ class Method(str, Enum):
 class Format(str, Enum):
     text = "text"
     latex = "latex"
+
+
+class PlotFormat(str, Enum):
+    png = "png"
+    svg = "svg"
+    pdf = "pdf"
+
+
+PlotFormatOpt = typer.Option(PlotFormat.png, "--plot-format", case_sensitive=False,
+                             help="Plot file format: png (200 dpi), svg or pdf.")
+
+
+def integrator_name(value: str | None) -> str | None:
+    """The integrator's own spelling of ``value`` (``rk45`` -> ``RK45``); a name
+    that matches none is passed on as given, for the error that lists them."""
+    if value is None:
+        return None
+    from ..numeric.integrators import METHODS
+
+    return next((m for m in METHODS if m.lower() == value.strip().lower()), value)
+
+
+#: run settings as the library names them -> the flags that set them
+FLAGS = {"output_step": "--dt", "t_end": "--t-end", "rtol": "--rtol", "atol": "--atol",
+         "roundtrip_tolerance": "--roundtrip-tol", "roundtrip_segment": "--roundtrip-segment",
+         "max_condition": "--max-condition", "energy_tol": "--energy-tol",
+         "samples": "--samples", "probe_calls": "--probe-calls", "repeats": "--repeats",
+         "max_calls": "--max-calls", "numeric_tolerance": "--tol",
+         "trajectory_tolerance": "--trajectory-tol", "symbolic_terms": "--symbolic-terms"}
+
+
+def flag_message(setting: str, reason: str) -> str:
+    """A setting's error in the command line's words: ``--dt must be ...``."""
+    return f"{FLAGS.get(setting, setting)} {reason}"
 
 
 def time_line(timings: dict, start: float) -> str:
@@ -32,13 +67,14 @@ def out_dir(out: Path | None, robot_name: str) -> Path:
     return out if out is not None else Path("results") / robot_name
 
 
-FormulationOpt = typer.Option(Method.kane, "--formulation", help="Formulation to integrate.")
+FormulationOpt = typer.Option(Formulation.kane, "--formulation", case_sensitive=False,
+                              help="Formulation to integrate.")
 
 
 def _usable_out(out: Path | None) -> Path | None:
     """--out is checked when the command line is read, before any computation."""
     if out is not None:
-        from ..output.files import check_dir
+        from ..files import check_dir
         check_dir(out)
     return out
 

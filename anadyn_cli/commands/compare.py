@@ -6,6 +6,8 @@ from typing import List, Optional
 
 import typer
 
+from ..errors import ModelError
+
 
 
 def compare(
@@ -39,7 +41,7 @@ def compare(
     from ..model import load_robot
 
     start = time.perf_counter()
-    models = [load_robot(p) for p in service.robot_files(robots)]
+    models = [load_robot(p) for p in robot_files(robots)]
     result = service.compare(models, samples=samples, seed=seed, rtol=tol,
                              trajectory_tol=trajectory_tol, symbolic_terms=symbolic_terms,
                              t_end=t_end, use_cache=cache)
@@ -48,4 +50,14 @@ def compare(
     typer.echo(service.table(result))
     typer.echo(f"time: total {time.perf_counter() - start:.2f} s")
     typer.echo("wrote " + ", ".join(str(p) for p in written))
-    service.check(result)
+    service.raise_if_failed(result)
+
+
+def robot_files(paths) -> list[Path]:
+    """The given files, or every robots/*.yaml."""
+    if paths:
+        return [Path(p) for p in paths]
+    found = sorted(Path("robots").glob("*.yaml"))
+    if not found:
+        raise ModelError("no robot files given and none in robots/*.yaml")
+    return found

@@ -5,12 +5,13 @@ from pathlib import Path
 
 import typer
 
-from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir, time_line
+from .common import (Formulation, FormulationOpt, OutOpt, PlotFormat, PlotFormatOpt, RobotArg,
+                     out_dir, time_line)
 
 
 def inverse(
     robot: Path = RobotArg,
-    formulation: Method = FormulationOpt,
+    formulation: Formulation = FormulationOpt,
     dt: float = typer.Option(None, "--dt", help="Output step in s (default: the file's "
                                                 "simulation.output_step, else 0.01)."),
     out: Path = OutOpt,
@@ -25,7 +26,10 @@ def inverse(
         help="Length in s of the round trip's pieces, each started from the prescribed "
              "state (default: short enough that the open-loop growth stays below 1e3; "
              "the whole motion when it is stable)."),
-    plot: bool = typer.Option(True, help="Write inverse.png."),
+    plot: bool = typer.Option(True, help="Write inverse.png (or .svg, .pdf)."),
+    plot_format: PlotFormat = PlotFormatOpt,
+    rates: bool = typer.Option(False, "--rates", help="Plot the prescribed rates and "
+                                                      "accelerations too."),
     cache: bool = typer.Option(True, help="Reuse derived equations from the cache."),
 ) -> None:
     """Efforts tau = B^-1 (M ddq - F) along the file's trajectory: inverse.csv, inverse.png.
@@ -35,26 +39,32 @@ def inverse(
     """
     import time
 
+    from ..numeric.build import numeric_model
+    from ..output import progress
     from ..services import inverse as service
-    from ..model import load_robot
-    from ..numeric.trajectory import missing
 
     start = time.perf_counter()
     timings: dict = {}
-    loaded = time.perf_counter()
-    model = load_robot(robot)
-    timings["load"] = time.perf_counter() - loaded
-    if model.trajectory is None:
-        raise missing(model)
-    result = service.inverse(model, formulation.value, step=dt, roundtrip=roundtrip,
-                             tolerance=roundtrip_tol, segment=roundtrip_segment,
-                             timings=timings, use_cache=cache)
-    written = service.write(result, out_dir(out, model.name), plot=plot)
+    with progress.task(f"preparing the {formulation.value} equations"):
+        model = numeric_model(robot, formulation.value, use_cache=cache, timings=timings)
+    with progress.task(f"efforts of {model.name}"
+                       + (" and the round trip" if roundtrip else "")):
+        result = service.inverse(model, step=dt, roundtrip=roundtrip, tolerance=roundtrip_tol,
+                                 segment=roundtrip_segment, timings=timings)
+    with progress.task("writing the results"):
+        written = service.write(result, out_dir(out, model.name), plot=plot,
+                                plot_format=plot_format.value, rates=rates)
     typer.echo(f"{result.robot.name}: {result.kind} motion over {result.duration:g} s "
                f"({result.formulation}); efforts at {len(result.t)} points in "
                f"{timings['efforts'] * 1e3:.2f} ms")
     typer.echo(service.table(result))
+    typer.echo(service.peaks(result))
     typer.echo(service.roundtrip_line(result))
+    if result.constraints is not None:            # closed chains: the constraint forces
+        typer.echo("constraint forces: " + ", ".join(
+            f"{r.column} up to {abs(result.constraints.multipliers[:, k]).max():.4g}"
+            f"{' ' + r.unit if r.unit else ''}" for k, r in enumerate(result.constraints.rows))
+            + (f"; {result.note}" if result.note else ""))
     typer.echo(time_line(result.timings, start))
     typer.echo("wrote " + ", ".join(str(p) for p in written))
-    service.check(result)
+    service.raise_if_failed(result)

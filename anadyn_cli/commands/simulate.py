@@ -5,14 +5,15 @@ from pathlib import Path
 
 import typer
 
-from .common import FormulationOpt, Method, OutOpt, RobotArg, out_dir, time_line
+from .common import (Formulation, FormulationOpt, OutOpt, PlotFormat, PlotFormatOpt, RobotArg,
+                     integrator_name, out_dir, time_line)
 
 
 def simulate(
     robot: Path = RobotArg,
-    formulation: Method = FormulationOpt,
-    method: str = typer.Option(None, help="Integrator: auto, odeint, RK45, RK23, DOP853, "
-                                          "Radau, BDF, LSODA [default: from the file, "
+    formulation: Formulation = FormulationOpt,
+    method: str = typer.Option(None, help="Integrator (any case): auto, odeint, RK45, RK23, "
+                                          "DOP853, Radau, BDF, LSODA [default: from the file, "
                                           "else auto]."),
     rtol: float = typer.Option(None, help="Relative tolerance [default: 1e-10]."),
     atol: float = typer.Option(None, help="Absolute tolerance [default: 1e-12]."),
@@ -21,7 +22,12 @@ def simulate(
     dt: float = typer.Option(None, "--dt", help="Output step in s [default: from the file, "
                                                 "else 0.01]."),
     out: Path = OutOpt,
-    plot: bool = typer.Option(True, help="Write simulate.png."),
+    plot: bool = typer.Option(True, help="Write simulate.png (or .svg, .pdf)."),
+    plot_format: PlotFormat = PlotFormatOpt,
+    rates: bool = typer.Option(False, "--rates", help="Plot the rates too (a panel each)."),
+    animate: bool = typer.Option(False, "--animate",
+                                 help="Also write animate.gif (and animate.mp4 when ffmpeg "
+                                      "is on the PATH) of the motion."),
     cache: bool = typer.Option(True, help="Reuse derived equations from the cache."),
     estimate: bool = typer.Option(False, "--estimate-error",
                                   help="Also estimate the run's global error by a re-solve "
@@ -30,21 +36,29 @@ def simulate(
     """Direct dynamics under the robot's feedback laws: simulate.csv and simulate.png."""
     import time
 
+    from ..numeric.build import numeric_model
+    from ..output import progress
     from ..services import simulate as service
-    from ..numeric.build import prepare
 
     start = time.perf_counter()
     timings: dict = {}
-    info, compiled = prepare(robot, formulation.value, use_cache=cache, timings=timings)
-    result = service.simulate(info, formulation.value, compiled=compiled, timings=timings,
-                              method=method, rtol=rtol, atol=atol, t_end=t_end,
-                              output_step=dt)
-    if estimate and result.solution.success:
-        from ..services.accuracy import estimate_error
-        moment = time.perf_counter()
-        result.estimated_error = estimate_error(result, compiled)
-        result.timings["estimate"] = time.perf_counter() - moment
-    written = service.write(result, out_dir(out, info.name), plot=plot)
+    with progress.task(f"preparing the {formulation.value} equations"):
+        model = numeric_model(robot, formulation.value, use_cache=cache, timings=timings)
+    info = model.info
+    with progress.task(f"integrating {info.name}" + (" and estimating the error"
+                                                     if estimate else "")):
+        result = service.simulate(model, method=integrator_name(method), rtol=rtol, atol=atol,
+                                  t_end=t_end, output_step=dt, estimate_error=estimate,
+                                  timings=timings)
+    with progress.task("writing the results"):
+        written = service.write(result, out_dir(out, info.name), plot=plot,
+                                plot_format=plot_format.value, rates=rates)
+    note = ""
+    if animate:
+        from .animate import animate_run
+        movie, note = animate_run(result, robot, out_dir(out, info.name), cache=cache,
+                                  timings=result.timings)
+        written = written[:-1] + movie[:-1] + written[-1:] + movie[-1:]
     solution = result.solution
     typer.echo(service.table(result))
     if solution.reason:
@@ -57,4 +71,8 @@ def simulate(
     typer.echo(time_line(result.timings, start)
                + ("" if result.estimated_error is None
                   else f"; estimated error {result.estimated_error:.2e}"))
+    if result.constraints is not None:
+        typer.echo(result.constraints.line())
+    if note:
+        typer.echo(f"animation: {note}")
     typer.echo("wrote " + ", ".join(str(p) for p in written))

@@ -34,7 +34,6 @@ FUNCTIONS: dict[str, tuple[object, tuple[int, ...] | None]] = {
     "min": (sp.Min, None), "max": (sp.Max, None),
 }
 CONSTANTS = {"pi": sp.pi}
-RESERVED = FUNCTION_NAMES | CONSTANT_NAMES     # the same names as FUNCTIONS and CONSTANTS
 
 MAX_LENGTH = 2000          # characters in one expression
 MAX_EXACT_EXPONENT = 64    # larger numeric powers are computed in floating point

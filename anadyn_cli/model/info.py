@@ -10,6 +10,9 @@ from dataclasses import asdict, dataclass
 
 from .names import default_name
 
+#: the integrators by name (numeric.integrators runs them; the loader checks a file's choice)
+METHODS = ("auto", "odeint", "RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+
 
 @dataclass(frozen=True)
 class Simulation:

@@ -32,13 +32,12 @@ from ..errors import ModelError
 from . import expressions
 from . import massmatrix
 from .names import GROUND, IDENTIFIER, RESERVED_NAMES, default_name
-from .robot import JOINT_TYPES, Actuator, Body, Controller, Coordinate, Joint, JointLimits, Load, Robot, Simulation, Trajectory, frozen_map
+from .robot import (JOINT_TYPES, Actuator, Body, Controller, Coordinate, Joint, JointLimits,
+                    Load, Robot, Simulation, Trajectory, frozen_map)
+from .info import METHODS
 from .yamlsource import load, read_text
 
 TRAJECTORY_KINDS = ("cycloidal", "quintic", "expression")
-# the integrators by name (integrators.METHODS, kept here so that loading a
-# robot does not import the numeric modules)
-METHODS = ("auto", "odeint", "RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 MAX_BODIES = 100          # symbolic derivation is out of reach long before this
 MAX_COORDINATES = 100
 MAX_ROWS = 1_000_000      # simulation.t_end / simulation.output_step
@@ -48,7 +47,8 @@ SMALLEST, LARGEST = 1e-30, 1e30
 JOINT_FORCE_KEYS = ("damping", "friction", "friction_velocity", "stiffness", "rest")
 LOAD_FRAMES = ("world", "body")
 TOP_KEYS = ("name", "description", "parameters", "gravity", "coordinates", "bodies",
-            "actuators", "controller", "loads", "trajectory", "simulation")
+            "actuators", "controller", "loads", "trajectory", "simulation", "loops",
+            "constraints")
 
 
 def load_robot(path: str | Path) -> Robot:
@@ -221,12 +221,17 @@ class _RobotBuilder:
         loads = self.loads(top["loads"], bodies, coordinates) if "loads" in top else ()
         trajectory = self.trajectory(top["trajectory"]) if "trajectory" in top else None
         simulation = self.simulation(top["simulation"]) if "simulation" in top else Simulation()
+        constraints = None
+        from . import constraints as closing       # closed chains (issue 10)
+        if closing.wanted(top, coordinate_cursors):
+            constraints, coordinates = closing.build(self, top, coordinate_cursors, bodies,
+                                                     coordinates)
         robot = Robot(name=name, source=self.root.source, digest=self.digest,
                       parameters=frozen_map(self.definitions), gravity=gravity,
                       coordinates=coordinates, bodies=bodies, actuators=actuators,
                       controller=controller, loads=loads, trajectory=trajectory,
                       simulation=simulation, description=description,
-                      name_given="name" in top)
+                      name_given="name" in top, constraints=constraints)
         self.check_mass_matrix(robot, top["coordinates"], coordinate_cursors)
         return robot
 
@@ -326,7 +331,8 @@ class _RobotBuilder:
     def coordinates(self, items: dict[str, Cursor], units: dict[str, str]) -> tuple[Coordinate, ...]:
         result = []
         for key, item in items.items():
-            fields = item.mapping(("initial", "rate")) if item.value is not None else {}
+            fields = item.mapping(("initial", "rate", "dependent")) if item.value is not None else {}
+            fields.pop("dependent", None)        # read by model.constraints
             if key not in units:
                 raise item.error("no joint displacement uses this coordinate; every coordinate "
                                  "must move some joint")
@@ -348,18 +354,83 @@ class _RobotBuilder:
             raise cursor.error("at least one body is required")
         if len(items) > MAX_BODIES:
             raise cursor.error(f"{len(items)} bodies; anadyn handles at most {MAX_BODIES}")
-        free_coordinates = iter(self.q.values())
+        claimed = self.claimed_by_displacements(items)
+        defaults = self.default_coordinates(items, [symbol for name, symbol in self.q.items()
+                                                    if name not in claimed])
         bodies: dict[str, Body] = {}
         cursors: dict[str, Cursor] = {}
         units: dict[str, str] = {}
-        for item in items:
-            body = self.body(item, free_coordinates, units)
+        for k, item in enumerate(items):
+            body = self.body(item, iter(defaults.get(k, ())), units)
             if body.name in bodies:
                 raise item.child("name", None).error(
                     f"duplicate body name {body.name!r}; every body needs its own name")
             bodies[body.name] = body
             cursors[body.name] = item
         return self.tree_order(bodies, cursors), units, cursors
+
+    def claimed_by_displacements(self, items: list[Cursor]) -> set[str]:
+        """Coordinates that an explicit displacement claims: one of a single
+        coordinate (``q1``, ``2*q1 + 0.1``); a coupled one (``q2 - q1``) claims
+        none.  A joint without a displacement takes the next unclaimed coordinate."""
+        claimed: set[str] = set()
+        for item in items:
+            joint = item.value.get("joint") if isinstance(item.value, dict) else None
+            text = joint.get("displacement") if isinstance(joint, dict) else None
+            named = set(re.findall(r"[A-Za-z_]\w*", str(text))) & set(self.q)
+            if isinstance(text, str) and len(named) == 1:
+                claimed |= named
+        return claimed
+
+    def default_coordinates(self, items: list[Cursor], free: list) -> dict[int, list]:
+        """Item index -> [its default coordinate] for the joints without a
+        displacement, taken from ``free`` in the order of the tree (from the ground
+        outwards), not of the file: listing the bodies in another order gives the
+        same coordinates.  Such joints must lie on one chain from the ground;
+        on separate branches their order would come from the file alone, and the
+        file is refused.  (Names and parents are checked later; a body whose chain
+        cannot be followed here keeps its place in the file.)"""
+        raw = [item.value if isinstance(item.value, dict) else {} for item in items]
+        index: dict[str, int] = {}
+        for k, value in enumerate(raw):
+            if isinstance(value.get("name"), str):
+                index.setdefault(value["name"], k)
+
+        def chain(k: int) -> list[int] | None:
+            """Ancestors of item k (nearest first), None if they cannot be followed."""
+            seen: list[int] = []
+            parent = raw[k].get("parent", GROUND)
+            while parent != GROUND:
+                if not isinstance(parent, str) or parent not in index or index[parent] in seen \
+                        or index[parent] == k:
+                    return None
+                seen.append(index[parent])
+                parent = raw[index[parent]].get("parent", GROUND)
+            return seen
+
+        takers = []
+        for k, value in enumerate(raw):
+            joint = value.get("joint")
+            if (isinstance(joint, dict) and joint.get("type") in ("revolute", "prismatic")
+                    and "displacement" not in joint):
+                takers.append(k)
+        ancestors = {k: chain(k) for k in takers}
+        if any(a is None for a in ancestors.values()):
+            order = takers                                   # reported later, as it is
+        else:
+            order = sorted(takers, key=lambda k: len(ancestors[k]))
+            for before, after in zip(order, order[1:]):
+                if before not in ancestors[after]:
+                    first, second = sorted((before, after))
+                    names = [raw[j].get("name") for j in (first, second)]
+                    hint = (f" (e.g. 'displacement: {free[order.index(after)]}')"
+                            if order.index(after) < len(free) else "")
+                    raise items[second].child("joint", raw[second].get("joint")).error(
+                        f"bodies {names[0]!r} and {names[1]!r} both take a default "
+                        "coordinate but lie on different branches of the tree, so which "
+                        "coordinate each gets would depend on their order in the file; give "
+                        f"them displacements{hint}")
+        return {k: [free[j]] for j, k in enumerate(order) if j < len(free)}
 
     def body(self, item: Cursor, free_coordinates, units: dict[str, str]) -> Body:
         fields = item.mapping(("name", "parent", "joint", "mass", "com", "inertia"),
@@ -416,7 +487,8 @@ class _RobotBuilder:
             displacement = next(free_coordinates, None)
             if displacement is None:
                 raise cursor.error("no 'displacement' given and no coordinate left to default "
-                                   "to (joints without one take the coordinates in order)")
+                                   "to (joints without one take the unused coordinates in "
+                                   "order, from the ground outwards)")
         used = [s for s in displacement.free_symbols if s.name in self.q]
         if not used:
             raise (fields.get("displacement") or cursor).error(

@@ -39,10 +39,6 @@ class Coordinate:
     def rate_symbol(self) -> sp.Symbol:
         return sp.Symbol("d" + self.name, real=True)
 
-    @property
-    def acceleration_symbol(self) -> sp.Symbol:
-        return sp.Symbol("dd" + self.name, real=True)
-
 
 @dataclass(frozen=True)
 class Joint:
@@ -144,6 +140,7 @@ class Robot:
     simulation: Simulation = field(default_factory=Simulation)
     description: str = ""
     name_given: bool = True                # False: named after its file
+    constraints: "Constraints | None" = None   # loops and constraints (model.constraints)
 
     def parameter_substitution(self, symbolic: bool = False) -> dict[sp.Symbol, sp.Expr]:
         """Parameter symbol -> value, for ``xreplace``.

@@ -1,8 +1,11 @@
-"""Robot -> compiled numeric functions, through the derivation cache.
+"""Robot -> ``NumericModel``, through the derivation cache.
 
-Derivation and code generation need SymPy; they are imported only on a
-cache miss.  On a hit, ``prepare`` reads the file, hashes it and loads the
-stored code and robot info: no YAML validation, no SymPy.
+``numeric_model`` is the one way in, from a path, a validated ``Robot``, or
+(internally) a cache entry.  Derivation and code generation need SymPy; they
+are imported only on a cache miss.  On a hit, a path is read and hashed, and
+the stored code and robot info are loaded: no YAML validation, no SymPy.
+The cache is opt-in (``use_cache``): the command line turns it on, library
+calls leave it off unless asked.
 """
 from __future__ import annotations
 
@@ -10,23 +13,45 @@ import hashlib
 import time
 from pathlib import Path
 
-from . import cache
-from .model import CompiledRobot
+from . import cache, constrained
 from ..model.info import RobotInfo
+from .model import NumericModel
 
 
-def compile_robot(robot, formulation: str = "kane", timings: dict | None = None,
-                  use_cache: bool = True, eom=None) -> CompiledRobot:
-    """The numeric functions of ``robot``'s equations by ``formulation``
-    (``eom``: those equations, when the caller has derived them already)."""
+#: formulations served by the recursive path (numeric.recursive, numeric.native)
+#: unless the caller hands over closed-form equations (``eom``)
+RECURSIVE = ("kane", "recursive")
+
+
+def _cache_key(formulation: str, eom) -> str:
+    """What the cache entry is filed under: "recursive" for the recursive path."""
+    return "recursive" if formulation in RECURSIVE and eom is None else formulation
+
+
+def numeric_model(robot, formulation: str = "kane", use_cache: bool = False,
+                  timings: dict | None = None, eom=None) -> NumericModel:
+    """The numeric model of ``robot`` (a path or a validated ``Robot``) by
+    ``formulation``; ``eom``: the robot's equations, when the caller has them.
+
+    "kane" (the default) and "recursive" without ``eom`` build the recursive
+    path: Kane's equations evaluated by Newton-Euler recursions, O(n) code,
+    native C when cached (``numeric.native``); closed chains and "lagrange"
+    (or a given ``eom``) build the closed forms."""
     timings = {} if timings is None else timings
+    if isinstance(robot, (str, Path)):
+        return _from_path(robot, formulation, use_cache, timings)
+    key = _cache_key(formulation, eom)
     if use_cache:
-        hit = _cached(robot.digest, formulation, robot.source)
+        hit = _cached(robot.digest, key, robot.source)
         if hit is not None:
             timings["cache"] = "hit"
-            return hit[1]
+            return hit
         timings["cache"] = "miss"
-    from . import closed_form
+    if key == "recursive" and robot.constraints is None:
+        return _recursive_model(robot, use_cache, timings)
+    if formulation == "recursive":
+        formulation = "kane"                        # closed chains: the closed forms
+    from . import closed_form, trajectory
     from ..symbolic.formulations import derive
 
     if eom is None:
@@ -34,25 +59,46 @@ def compile_robot(robot, formulation: str = "kane", timings: dict | None = None,
         eom = derive(robot, formulation)
         timings["derive"] = time.perf_counter() - start
     start = time.perf_counter()
-    code = closed_form.source(robot, eom)
-    compiled = CompiledRobot(code)
+    code = closed_form.source(robot, eom) + trajectory.motion_source(robot)
+    if robot.constraints is not None:               # closed chains (numeric.constrained)
+        code += constrained.source(robot, eom)
+    info = RobotInfo.from_robot(robot)
+    model = constrained.model_type(code)(info, code, formulation)
     timings["compile"] = time.perf_counter() - start
     if use_cache:
-        cache.store(robot.digest, formulation,
-                    {"code": code, "robot": RobotInfo.from_robot(robot).to_dict()})
-    return compiled
+        cache.store(robot.digest, key, {"code": code, "robot": info.to_dict()})
+    return model
 
 
-def prepare(path: str | Path, formulation: str = "kane", use_cache: bool = True,
-            timings: dict | None = None) -> tuple[RobotInfo, CompiledRobot]:
-    """Robot info and compiled functions for the file at ``path``."""
+def _recursive_model(robot, use_cache: bool, timings: dict) -> NumericModel:
+    """Recursive path: generated Python now, the C library when cached (or built
+    in the background for the next run; see ``native.mode``)."""
+    from . import native, recursive, trajectory
+
+    start = time.perf_counter()
+    generated = recursive.generate(robot)
+    code = recursive.module_source(generated) + trajectory.motion_source(robot)
+    c_text = native.c_source(generated)
+    timings["generate"] = time.perf_counter() - start
+    info = RobotInfo.from_robot(robot)
+    start = time.perf_counter()
+    model = native.numeric_model(info, code, c_text, "recursive", timings,
+                                 how=None if use_cache else "off")
+    timings["compile"] = time.perf_counter() - start
+    if use_cache:
+        cache.store(robot.digest, "recursive", {"code": code, "c": c_text,
+                                                "robot": info.to_dict()})
+    return model
+
+
+def _from_path(path: str | Path, formulation: str, use_cache: bool,
+               timings: dict) -> NumericModel:
     from ..model.yamlsource import read_text
 
-    timings = {} if timings is None else timings
     text, source = read_text(path)
     if use_cache:
         digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
-        hit = _cached(digest, formulation, source)
+        hit = _cached(digest, _cache_key(formulation, None), source)
         if hit is not None:
             timings["cache"] = "hit"
             return hit
@@ -61,16 +107,20 @@ def prepare(path: str | Path, formulation: str = "kane", use_cache: bool = True,
     start = time.perf_counter()
     robot = robot_from_text(text, source)
     timings["load"] = time.perf_counter() - start
-    compiled = compile_robot(robot, formulation, timings, use_cache)
-    return RobotInfo.from_robot(robot), compiled
+    return numeric_model(robot, formulation, use_cache, timings)
 
 
-def _cached(digest: str, formulation: str, source: str) -> tuple[RobotInfo, CompiledRobot] | None:
-    """The cache entry's robot info and functions; None on a miss or a damaged entry."""
+def _cached(digest: str, formulation: str, source: str) -> NumericModel | None:
+    """The cache entry's model; None on a miss or a damaged entry."""
     entry = cache.load(digest, formulation)
     if entry is None:
         return None
     try:
-        return RobotInfo.from_dict(entry["robot"], source), CompiledRobot(entry["code"])
+        if "c" in entry:                            # the recursive path
+            from . import native
+            return native.numeric_model(RobotInfo.from_dict(entry["robot"], source),
+                                        entry["code"], entry["c"], "recursive")
+        return constrained.model_type(entry["code"])(
+            RobotInfo.from_dict(entry["robot"], source), entry["code"], formulation)
     except Exception:           # noqa: BLE001  anything wrong with a stored entry is a miss
         return None

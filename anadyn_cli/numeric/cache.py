@@ -58,7 +58,7 @@ def load(robot_digest: str, formulation: str) -> dict | None:
 
 
 def store(robot_digest: str, formulation: str, entry: dict) -> None:
-    from ..output.files import write_text
+    from ..files import write_text
 
     folder = directory()
     try:

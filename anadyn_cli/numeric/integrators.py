@@ -1,9 +1,12 @@
-"""Integrators by name, and the stiffness analysis behind ``auto``.
+"""Integrators by name: every ODE run of anadyn goes through ``integrate``.
 
-Every method returns a ``Solution`` on the requested grid; failure comes back
-as data (``success`` False, ``message``, the rows before it), never as an
-exception.  RHS and Jacobian calls are counted by ``CompiledRobot`` itself:
-SciPy's own ``nfev`` leaves out the calls of finite-difference Jacobians.
+A service hands over a ``Problem``, plain callables for x' = f(t, x) and,
+optionally, its Jacobian df/dx.  This layer owns what every run needs:
+counting RHS and Jacobian calls (SciPy's ``nfev`` leaves out finite-difference
+Jacobians), call and time budgets, and failure capture.  The result is a
+``Solution`` on the requested grid; failure comes back as data (``success``
+False, ``message`` naming the time and state, the rows before it), never as
+an exception.
 
     odeint   LSODA with its stepping loop in compiled code; switches between
              Adams (non-stiff) and BDF (stiff) by itself; analytic Jacobian
@@ -14,25 +17,41 @@ SciPy's own ``nfev`` leaves out the calls of finite-difference Jacobians.
 """
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
-from .model import CompiledRobot
 from ..errors import ModelError
+from ..model.info import METHODS
 
-IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+IVP_METHODS = METHODS[2:]             # scipy.integrate.solve_ivp's, after auto and odeint
 IMPLICIT = ("Radau", "BDF", "LSODA")
-METHODS = ("auto", "odeint", *IVP_METHODS)
 STIFF_RATIO = 1000.0     # |lambda|max * horizon above this: explicit methods are step-limited
+#: what a right-hand side may raise at a state where the equations cannot be evaluated
+EVALUATION_ERRORS = (np.linalg.LinAlgError, OverflowError, ValueError, ZeroDivisionError)
+
+
+@dataclass(frozen=True)
+class Problem:
+    """x' = rhs(t, x), with d(x')/dx = jacobian(t, x) when known.
+
+    ``names`` label the state in messages; ``diagnose(x)`` may add a note on
+    why the equations fail near x (e.g. a nearly singular mass matrix).
+    """
+    rhs: Callable[[float, np.ndarray], np.ndarray]
+    jacobian: Callable[[float, np.ndarray], np.ndarray] | None = None
+    names: tuple[str, ...] = ()
+    diagnose: Callable[[np.ndarray], str] | None = None
 
 
 @dataclass
 class Solution:
     t: np.ndarray                 # the grid rows computed (all of them on success)
-    x: np.ndarray                 # rows x 2n states [q, dq]
+    x: np.ndarray                 # rows x states
     method: str                   # the method that ran
     success: bool
     message: str
@@ -41,15 +60,89 @@ class Solution:
     steps: int = 0
     wall: float = 0.0             # seconds in the integrator
     reason: str = ""              # why auto chose the method
-    notes: dict = field(default_factory=dict)
-    last: tuple[float, np.ndarray] | None = None   # last accepted step, when it failed
+    over_budget: "OverBudget | None" = None   # set when a call or time budget stopped it
+    last: tuple[float, np.ndarray] | None = field(default=None, repr=False)
+
+
+class OverBudget(Exception):
+    """A run stopped by its RHS-call or time budget (``t``: the latest time reached)."""
+
+    def __init__(self, calls: int, t: float, seconds: bool = False):
+        super().__init__(f"over {'time' if seconds else 'budget'} after {calls} RHS calls "
+                         f"at t = {t:g} s")
+        self.calls, self.t, self.seconds = calls, t, seconds
+
+
+class _Counted:
+    """The problem's callables with counting, budgets and the first failure recorded.
+
+    A state where the equations cannot be evaluated, or give non-finite
+    values, is recorded and answered with NaNs, which no integrator steps over.
+    """
+
+    def __init__(self, problem: Problem, budget: int | None, seconds: float | None):
+        self.problem, self.budget = problem, budget
+        self.deadline = None if seconds is None else time.perf_counter() + seconds
+        self.rhs_calls = self.jacobian_calls = 0
+        self.t_reached = -math.inf
+        self.failure: tuple[float, np.ndarray, str] | None = None
+
+    def _fail(self, t: float, x: np.ndarray, why: str) -> None:
+        if self.failure is None:
+            self.failure = (float(t), np.array(x, dtype=float), why)
+
+    def rhs(self, t: float, x: np.ndarray) -> np.ndarray:
+        calls = self.rhs_calls
+        if self.budget is not None and calls >= self.budget:
+            raise OverBudget(calls, self.t_reached)
+        if self.deadline is not None and calls % 64 == 0 and time.perf_counter() > self.deadline:
+            raise OverBudget(calls, self.t_reached, seconds=True)
+        self.rhs_calls = calls + 1
+        self.t_reached = max(self.t_reached, float(t))
+        try:
+            out = self.problem.rhs(t, x)
+        except EVALUATION_ERRORS as err:
+            self._fail(t, x, _why(err))
+            return np.full(len(x), np.nan)
+        if not math.isfinite(out.sum()):
+            self._fail(t, x, "non-finite state derivative")
+            return np.full(len(x), np.nan)
+        return out
+
+    def rhs_tfirst(self, x: np.ndarray, t: float) -> np.ndarray:
+        """``rhs`` with odeint's argument order (x, t)."""
+        return self.rhs(t, x)
+
+    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        self.jacobian_calls += 1
+        try:
+            J = self.problem.jacobian(t, x)
+        except EVALUATION_ERRORS as err:
+            self._fail(t, x, _why(err))
+            return np.full((len(x), len(x)), np.nan)
+        if not np.isfinite(J).all():
+            self._fail(t, x, "non-finite Jacobian")
+        return J
+
+    def jacobian_tfirst(self, x: np.ndarray, t: float) -> np.ndarray:
+        return self.jacobian(t, x)
+
+    def finite_jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        """``jacobian`` with a failure (recorded) given as zeros, not NaN: solve_ivp's
+        LU factorization raises on NaN, while a NaN RHS stops the step as it should."""
+        return np.nan_to_num(self.jacobian(t, x), nan=0.0, posinf=0.0, neginf=0.0)
+
+
+def _why(err: Exception) -> str:
+    if isinstance(err, np.linalg.LinAlgError):
+        return "singular mass matrix"
+    return f"cannot evaluate the equations ({err})"
 
 
 @dataclass(frozen=True)
 class Stiffness:
     eigenvalues: np.ndarray
     fastest: float                # max |Re lambda|, 1/s
-    slowest: float                # min |Re lambda| over the decaying modes, 1/s
     horizon: float
 
     @property
@@ -68,66 +161,85 @@ class Stiffness:
                 f"horizon (ratio {self.ratio:.3g}): {'stiff' if self.stiff else 'not stiff'}")
 
 
-def stiffness(robot: CompiledRobot, t: float, x: np.ndarray, horizon: float) -> Stiffness:
-    """Eigenvalues of the state Jacobian at (t, x)."""
-    J = robot.jacobian(t, x)
+def eigenvalues(jacobian: Callable, t: float, x: np.ndarray) -> np.ndarray | None:
+    """Eigenvalues of d(x')/dx at (t, x); None where the Jacobian is not finite
+    or cannot be evaluated (the one eigenvalue scan every service uses)."""
+    try:
+        J = jacobian(t, x)
+    except EVALUATION_ERRORS:
+        return None
     if not np.isfinite(J).all():
-        return Stiffness(np.array([]), 0.0, 0.0, horizon)
-    eigenvalues = np.linalg.eigvals(J)
-    real = np.abs(eigenvalues.real)
-    decaying = real[real > 1e-12]
-    return Stiffness(eigenvalues, float(real.max(initial=0.0)),
-                     float(decaying.min(initial=0.0)), horizon)
+        return None
+    return np.linalg.eigvals(J)
 
 
-def integrate(robot: CompiledRobot, x0: np.ndarray, grid: np.ndarray, method: str = "auto",
-              rtol: float = 1e-10, atol: float = 1e-12) -> Solution:
-    """States on ``grid`` (grid[0] is the start) by ``method``."""
+def stiffness(problem: Problem, t: float, x: np.ndarray, horizon: float) -> Stiffness:
+    """The fastest decay max |Re lambda| of the state Jacobian at (t, x)."""
+    lam = eigenvalues(problem.jacobian, t, x) if problem.jacobian else None
+    if lam is None:
+        return Stiffness(np.array([]), 0.0, horizon)
+    return Stiffness(lam, float(np.abs(lam.real).max(initial=0.0)), horizon)
+
+
+def integrate(problem: Problem, x0: np.ndarray, grid: np.ndarray, method: str = "auto",
+              rtol: float = 1e-10, atol: float = 1e-12, budget: int | None = None,
+              seconds: float | None = None, stop_at_end: bool = False) -> Solution:
+    """States on ``grid`` (grid[0] is the start) by ``method``.
+
+    ``budget`` (RHS calls) and ``seconds`` stop a run early: the solution then
+    has ``success`` False and ``over_budget`` set.  ``stop_at_end``: odeint
+    never evaluates the RHS past grid[-1] (for a forcing defined only up to it).
+    """
     if method not in METHODS:
         raise ModelError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    x0 = np.asarray(x0, dtype=float)
     reason = ""
     if method == "auto":
-        analysis = stiffness(robot, grid[0], x0, grid[-1] - grid[0])
+        analysis = stiffness(problem, grid[0], x0, grid[-1] - grid[0])
         reason = (f"{analysis.describe()}; odeint (LSODA) steps in compiled code and "
                   f"switches between Adams and BDF itself")
         method = "odeint"
-    robot.reset_counters()
+    counted = _Counted(problem, budget, seconds)
     start = time.perf_counter()
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")          # failures are reported as data below
-        if not np.isfinite(robot.rhs(grid[0], x0)).all():     # fails where it starts
-            solution = Solution(grid[:1], np.array(x0, dtype=float)[None, :], method, False,
-                                "the equations fail at the start")
-        elif method == "odeint":
-            solution = _odeint(robot, x0, grid, rtol, atol)
-        else:
-            solution = _solve_ivp(robot, x0, grid, method, rtol, atol)
+        try:
+            if not np.isfinite(counted.rhs(grid[0], x0)).all():     # fails where it starts
+                solution = Solution(grid[:1], x0[None, :], method, False,
+                                    "the equations fail at the start")
+            elif method == "odeint":
+                solution = _odeint(counted, x0, grid, rtol, atol, stop_at_end)
+            else:
+                solution = _solve_ivp(counted, x0, grid, method, rtol, atol)
+        except OverBudget as over:
+            solution = Solution(grid[:1], x0[None, :], method, False, str(over),
+                                over_budget=over)
     solution.wall = time.perf_counter() - start
-    solution.rhs_calls, solution.jacobian_calls = robot.rhs_calls, robot.jacobian_calls
+    solution.rhs_calls, solution.jacobian_calls = counted.rhs_calls, counted.jacobian_calls
     solution.reason = reason
-    return _cut_at_failure(robot, solution)
+    return solution if solution.over_budget else _cut_at_failure(counted, solution)
 
 
-def _odeint(robot, x0, grid, rtol, atol) -> Solution:
+def _odeint(counted: _Counted, x0, grid, rtol, atol, stop_at_end: bool) -> Solution:
     from scipy.integrate import odeint
 
-    x, info = odeint(robot.rhs_tfirst, x0, grid, Dfun=lambda x, t: robot.jacobian(t, x),
-                     rtol=rtol, atol=atol, full_output=True, mxstep=10**6)
+    jacobian = counted.jacobian_tfirst if counted.problem.jacobian else None
+    x, info = odeint(counted.rhs_tfirst, x0, grid, Dfun=jacobian, rtol=rtol, atol=atol,
+                     full_output=True, mxstep=10**6,
+                     tcrit=[grid[-1]] if stop_at_end else None)
     ok = info["message"].startswith("Integration successful")
-    used = info["mused"][: max(1, len(grid) - 1)]
-    notes = {"bdf_fraction": float(np.mean(used == 2)) if len(used) else 0.0}
     steps = int(info["nst"][-1]) if len(info["nst"]) else 0
     if not ok:      # rows past the last time reached are not valid
         reached = np.flatnonzero(grid <= info["tcur"].max())
         x = x[: reached[-1] + 1] if len(reached) else x[:1]
-    return Solution(grid[: len(x)], x, "odeint", ok, info["message"], steps=steps, notes=notes)
+    return Solution(grid[: len(x)], x, "odeint", ok, info["message"], steps=steps)
 
 
-def _solve_ivp(robot, x0, grid, method, rtol, atol) -> Solution:
+def _solve_ivp(counted: _Counted, x0, grid, method, rtol, atol) -> Solution:
     from scipy.integrate import solve_ivp
 
-    jac = robot.finite_jacobian if method in IMPLICIT else None
-    sol = solve_ivp(robot.rhs, (grid[0], grid[-1]), x0, method=method, rtol=rtol, atol=atol,
+    jac = counted.finite_jacobian if method in IMPLICIT and counted.problem.jacobian else None
+    sol = solve_ivp(counted.rhs, (grid[0], grid[-1]), x0, method=method, rtol=rtol, atol=atol,
                     jac=jac, dense_output=True)
     reached = grid[grid <= sol.t[-1]] if sol.status != 0 else grid
     x = sol.sol(reached).T if len(reached) > 1 else x0[None, :]
@@ -136,36 +248,64 @@ def _solve_ivp(robot, x0, grid, method, rtol, atol) -> Solution:
                     last=(float(sol.t[-1]), sol.y[:, -1].copy()))
 
 
-def _cut_at_failure(robot: CompiledRobot, solution: Solution) -> Solution:
+def _cut_at_failure(counted: _Counted, solution: Solution) -> Solution:
     """Keep the rows before the first non-finite one; name the failure."""
     finite = np.isfinite(solution.x).all(axis=1)
     bad = np.flatnonzero(~finite)
     if len(bad):
         solution.t, solution.x = solution.t[: bad[0]], solution.x[: bad[0]]
         solution.success = False
-    if robot.failure is not None and not solution.success:
-        t, x, why = robot.failure
-        solution.message = f"{why} at t = {t:.6g} s, state {_state(x, robot)}"
+    problem = counted.problem
+    if counted.failure is not None and not solution.success:
+        t, x, why = counted.failure
+        solution.message = f"{why} at t = {t:.6g} s, state {_state(x, problem.names)}"
     elif not solution.success:
         t, x = solution.last or (solution.t[-1], solution.x[-1])
+        note = problem.diagnose(x) if problem.diagnose else ""
         solution.message = (f"integration failed ({solution.method}: "
-                            f"{solution.message.strip().rstrip('.')}{_conditioning(robot, x)}) "
-                            f"at t = {t:.6g} s, state {_state(x, robot)}")
+                            f"{solution.message.strip().rstrip('.')}{note}) "
+                            f"at t = {t:.6g} s, state {_state(x, problem.names)}")
     return solution
 
 
-def _conditioning(robot: CompiledRobot, x: np.ndarray) -> str:
-    """A note when the mass matrix at ``x`` is nearly singular (the usual cause)."""
-    n = robot.n
-    M = robot.mfb(x[:n, None], x[n:, None])[0][0]
-    d = np.sqrt(np.abs(np.diag(M)))
-    if not np.isfinite(M).all() or not d.all():
-        return "; the mass matrix is singular there"
-    condition = np.linalg.cond(M / np.outer(d, d))
-    return (f"; the mass matrix is nearly singular there, condition number {condition:.3g}"
-            if condition > 1e10 else "")
-
-
-def _state(x: np.ndarray, robot: CompiledRobot) -> str:
-    names = [*robot.coordinates, *("d" + c for c in robot.coordinates)]
+def _state(x: np.ndarray, names: tuple[str, ...]) -> str:
+    names = names or tuple(f"x{k}" for k in range(len(x)))
     return "(" + ", ".join(f"{n}={v:.6g}" for n, v in zip(names, x)) + ")"
+
+
+# ----------------------------------------------------------------------------
+# every run knows its error
+# ----------------------------------------------------------------------------
+ESTIMATE_FACTOR = 1e-3             # estimate_error re-solves at rtol * 1e-3 ...
+ESTIMATE_FLOOR = 1e-13             # ... but not below 1e-13
+
+
+def state_scale(reference: np.ndarray) -> np.ndarray:
+    """s_i = max(1, max_k |xref_i|): absolute error for O(1) states, relative for large ones."""
+    return np.maximum(1.0, np.abs(reference).max(axis=0))
+
+
+def state_error(x: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
+    """(max over the grid, value at the last row) of max_i |x_i - xref_i| / s_i."""
+    if x.shape != reference.shape:
+        raise ValueError(f"solution rows {x.shape} do not match the reference {reference.shape}")
+    per_row = (np.abs(x - reference) / state_scale(reference)).max(axis=1)
+    return float(per_row.max()), float(per_row[-1])
+
+
+def estimate_error(problem: Problem, solution: Solution, rtol: float, atol: float) -> float:
+    """Estimated global error of a run: max over its grid, in ``state_error``'s norm.
+
+    The run is repeated by the same method (``auto``'s choice, e.g. odeint)
+    at rtol * 1e-3 and atol * 1e-3 (rtol not below 1e-13); by tolerance
+    proportionality the re-solve's own error is ~1000x smaller, so the
+    difference is the run's error.  At rtol <= 1e-13 there is no tighter
+    re-solve and the estimate is only an upper bound of the re-solve noise.
+    NaN if the re-solve fails.
+    """
+    fine_rtol = max(rtol * ESTIMATE_FACTOR, ESTIMATE_FLOOR)
+    fine = integrate(problem, solution.x[0], solution.t, solution.method, fine_rtol,
+                     atol * (fine_rtol / rtol))
+    if not fine.success or len(fine.t) != len(solution.t):
+        return math.nan
+    return state_error(solution.x, fine.x)[0]

@@ -1,26 +1,44 @@
-"""Generated numeric functions, loaded and wrapped for the integrators.
+"""The numeric model: a robot's generated functions and what a run needs to know.
+
+Every numeric service takes a ``NumericModel``.  It is built one way
+(``numeric.build.numeric_model``) from a path, a validated ``Robot`` or a
+cache entry, and holds no state: counting, budgets and failure capture belong
+to the integrators (``integrators.integrate``), which get ``problem()``.
 
 Only NumPy is imported here: a robot whose generated source is cached runs
 without importing SymPy.  The source is anadyn's own output (from
-``numeric.source``), never text from a robot file.
+``closed_form.source``), never text from a robot file.  State x = [q, dq]:
 
-    rhs(t, x)      -> dx/dt = [dq, ddq], M ddq = G   (a fresh array each call)
-    jacobian(t, x) -> [[0, I], [M^-1 K]]     (2n x 2n)
+    rhs(t, x)      -> dx/dt = [dq, ddq], M ddq = G = F + B tau(t, q, dq)
+    jacobian(t, x) -> [[0, I], [M^-1 K]],  K = [dG/dq - (dM/dq) ddq | dG/d(dq)]
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from ..errors import ModelError
+from ..model.info import RobotInfo
+from .integrators import Problem
 
-class CompiledRobot:
-    """State x = [q, dq]; counts the calls the integrators make."""
 
-    def __init__(self, source: str):
+class PrescribedMotion:
+    """q(t), dq(t), ddq(t) of the robot file's trajectory (exact derivatives):
+    ``motion(t)`` gives arrays of shape t.shape + (n,)."""
+
+    def __init__(self, kind: str, duration: float, function):
+        self.kind, self.duration, self._function = kind, float(duration), function
+
+    def __call__(self, t):
+        return self._function(t)
+
+
+class NumericModel:
+    """Compiled functions of one robot's equations by one formulation."""
+
+    def __init__(self, info: RobotInfo, source: str, formulation: str = "kane"):
         namespace: dict[str, object] = {}
         exec(compile(source, "<anadyn generated>", "exec"), namespace)   # noqa: S102
-        self.source = source
+        self.info, self.source, self.formulation = info, source, formulation
         self.coordinates: tuple[str, ...] = namespace["COORDINATES"]
         self.effort_names: tuple[str, ...] = namespace["EFFORTS"]
         self.n = len(self.coordinates)
@@ -29,62 +47,54 @@ class CompiledRobot:
         self._efforts = namespace["efforts"]
         self._mfb = namespace["mfb"]
         self._potential = namespace["potential"]
-        self.rhs_calls = 0
-        self.jacobian_calls = 0
-        self.failure: tuple[float, np.ndarray, str] | None = None   # first bad state
+        self._motion = (PrescribedMotion(*namespace["TRAJECTORY"], namespace["motion"])
+                        if "TRAJECTORY" in namespace else None)
+        self._motion_error = namespace.get("MOTION_ERROR")
+        self._powers = namespace.get("powers")    # only with loads or joint forces
 
-    def reset_counters(self) -> None:
-        self.rhs_calls = self.jacobian_calls = 0
-        self.failure = None
+    @property
+    def motion(self) -> PrescribedMotion:
+        """The prescribed motion; ModelError when the file has none, or a wrong one."""
+        if self._motion_error:
+            raise ModelError(self._motion_error)
+        if self._motion is None:
+            raise ModelError("no trajectory section: inverse dynamics needs a prescribed "
+                             "motion (trajectory: kind cycloidal, quintic or expression)",
+                             source=self.info.source)
+        return self._motion
 
-    def _fail(self, t: float, x: np.ndarray, why: str) -> np.ndarray:
-        """Record the first failure and hand the integrator NaNs, which it cannot step over."""
-        if self.failure is None:
-            self.failure = (float(t), np.array(x, dtype=float), why)
-        return np.full(2 * self.n, np.nan)
+    @property
+    def name(self) -> str:
+        return self.info.name
+
+    def initial_state(self) -> np.ndarray:
+        """x0 = [q(0), dq(0)] from the robot file."""
+        return np.array([c.initial for c in self.info.coordinates]
+                        + [c.rate for c in self.info.coordinates], dtype=float)
+
+    def state_names(self) -> tuple[str, ...]:
+        return (*self.coordinates, *("d" + c for c in self.coordinates))
+
+    def problem(self) -> Problem:
+        """The direct dynamics under the control laws, for ``integrators.integrate``."""
+        return Problem(self.rhs, self.jacobian, self.state_names(), self.diagnose)
 
     def accelerations(self, t: float, x) -> list[float]:
-        """ddq solving M ddq = G at one state (np.linalg.LinAlgError if M is singular)."""
+        """ddq solving M ddq = G at one state (numpy.linalg.LinAlgError if M is singular)."""
         return self._accelerations(t, *x.tolist())
 
     def rhs(self, t: float, x: np.ndarray) -> np.ndarray:
-        self.rhs_calls += 1
         values = x.tolist()
-        try:
-            out = np.array(values[self.n:] + self._accelerations(t, *values))
-        except np.linalg.LinAlgError:
-            return self._fail(t, x, "singular mass matrix")
-        except (OverflowError, ValueError, ZeroDivisionError) as err:
-            return self._fail(t, x, f"cannot evaluate the equations ({err})")
-        if not math.isfinite(out.sum()):
-            return self._fail(t, x, "non-finite state derivative")
-        return out
-
-    def rhs_tfirst(self, x: np.ndarray, t: float) -> np.ndarray:
-        """``rhs`` with odeint's argument order (x, t)."""
-        return self.rhs(t, x)
+        return np.array(values[self.n:] + self._accelerations(t, *values))
 
     def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
-        self.jacobian_calls += 1
         n = self.n
         values = x.tolist()
         J = np.zeros((2 * n, 2 * n))
         J[:n, n:] = np.eye(n)
-        try:
-            M, K = self._jacobian(t, *values, *self._accelerations(t, *values))
-            J[n:, :] = np.linalg.solve(M, K)
-        except (np.linalg.LinAlgError, OverflowError, ValueError, ZeroDivisionError) as err:
-            self._fail(t, x, "singular mass matrix" if isinstance(err, np.linalg.LinAlgError)
-                       else f"cannot evaluate the equations ({err})")
-            J[n:, :] = np.nan
-        if not np.isfinite(J).all():
-            self._fail(t, x, "non-finite Jacobian")
+        M, K = self._jacobian(t, *values, *self._accelerations(t, *values))
+        J[n:, :] = np.linalg.solve(M, K)
         return J
-
-    def finite_jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
-        """``jacobian`` with a failure (recorded) given as zeros, not NaN: solve_ivp's
-        LU factorization raises on NaN, while a NaN RHS stops the step as it should."""
-        return np.nan_to_num(self.jacobian(t, x), nan=0.0, posinf=0.0, neginf=0.0)
 
     def efforts(self, t, q, dq) -> np.ndarray:
         """Efforts under the control laws; q, dq of shape (n, ...) -> (m, ...)."""
@@ -92,15 +102,49 @@ class CompiledRobot:
             tau = self._efforts(t, *q, *dq)   # by the caller, never a stray warning line
         return np.moveaxis(tau, -1, 0)
 
-    def mfb(self, q, dq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """M (..., n, n), F (..., n), B (..., n, m) over arrays of states."""
+    def mfb(self, t, q, dq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """M (..., n, n), F (..., n), B (..., n, m) over arrays of times and states
+        (F depends on t through the loads)."""
         with np.errstate(all="ignore"):
-            return self._mfb(*q, *dq)
+            return self._mfb(t, *q, *dq)
+
+    @property
+    def has_forces(self) -> bool:
+        """Whether the robot has loads or joint damping, friction or springs."""
+        return self._powers is not None
+
+    def powers(self, t, q, dq) -> np.ndarray:
+        """(2, ...): the loads' power and the power dissipated by joint damping and
+        friction (>= 0), W; zeros for a robot without them."""
+        if self._powers is None:
+            return np.zeros((2, *np.broadcast_shapes(np.shape(t), np.shape(q)[1:])))
+        with np.errstate(all="ignore"):
+            return np.moveaxis(self._powers(t, *q, *dq), -1, 0)
 
     def energy(self, q, dq) -> tuple[np.ndarray, np.ndarray]:
-        """(T, V) over arrays of states: T = 1/2 dq^T M dq, V of gravity."""
+        """(T, V) over arrays of states: T = 1/2 dq^T M dq, V of gravity and springs."""
         with np.errstate(all="ignore"):
-            M, _, _ = self._mfb(*q, *dq)
+            M, _, _ = self._mfb(0.0, *q, *dq)
             rates = np.moveaxis(np.asarray(dq, dtype=float), 0, -1)
             kinetic = 0.5 * np.einsum("...i,...ij,...j->...", rates, M, rates)
             return kinetic, self._potential(*q)[..., 0]
+
+    def diagnose(self, x: np.ndarray) -> str:
+        """A note when the mass matrix at ``x`` is nearly singular (the usual cause
+        of a failed step)."""
+        n = self.n
+        M = self.mfb(0.0, x[:n, None], x[n:, None])[0][0]
+        if not np.isfinite(M).all() or not np.diag(M).all():
+            return "; the mass matrix is singular there"
+        condition = scaled_condition(M)
+        return (f"; the mass matrix is nearly singular there, condition number {condition:.3g}"
+                if condition > 1e10 else "")
+
+
+def scaled_condition(M: np.ndarray) -> np.ndarray:
+    """cond(D^-1/2 M D^-1/2), D = diag(M), over a stack (..., n, n) of mass matrices:
+    the conditioning that costs digits in a solve, free of units and link sizes
+    (van der Sluis).  The one conditioning routine of anadyn."""
+    d = np.sqrt(np.abs(np.diagonal(M, axis1=-2, axis2=-1)))
+    d = np.where(d == 0, 1.0, d)
+    return np.linalg.cond(M / (d[..., :, None] * d[..., None, :]))

@@ -102,12 +102,16 @@ def motion(robot: Robot) -> Motion:
                   tuple(q), tuple(dq), tuple(ddq), source, namespace["motion"])
 
 
-def grid(duration: float, step: float) -> np.ndarray:
-    """t = k * step for k = 0, 1, ... up to ``duration``, which is always the last row."""
-    count = int(np.floor(duration / step * (1 + 1e-12))) + 1
-    t = np.arange(count) * step
-    if abs(duration - t[-1]) <= 1e-9 * step:
-        t[-1] = duration
-    elif t[-1] < duration:
-        t = np.append(t, duration)
-    return t
+def motion_source(robot: Robot) -> str:
+    """Source defining ``motion(t)`` with TRAJECTORY = (kind, duration), appended to
+    the robot's generated module; a trajectory that cannot be compiled defines
+    MOTION_ERROR (its one-line message) instead, raised when inverse asks for it;
+    no trajectory defines nothing."""
+    if robot.trajectory is None:
+        return ""
+    try:
+        prescribed = motion(robot)
+    except ModelError as err:
+        return f"\nMOTION_ERROR = {str(err)!r}\n"
+    return (f"\n{prescribed.source}\n\n"
+            f"TRAJECTORY = ({prescribed.kind!r}, {prescribed.duration!r})\n")

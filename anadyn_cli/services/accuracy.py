@@ -53,12 +53,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..numeric import integrators
-from ..output import files as output
-from ..numeric.model import CompiledRobot
-from ..errors import ModelError, NumericalError
-from ..model.info import RobotInfo
-from .simulate import initial_state, output_grid, resolve
+from ..errors import ModelError, NumericalError, SettingError
+from ..numeric import constrained, integrators
+from ..numeric.integrators import Problem, state_error
+from ..numeric.model import NumericModel
+from ..numeric.settings import output_grid, resolve
+from .. import files as output
 
 TOLERANCES = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
 ATOL_RATIO = 1e-2                  # atol = rtol * ATOL_RATIO, like anadyn's defaults
@@ -70,8 +70,6 @@ MIN_TIMED = 0.05                   # cheap runs repeat (up to MAX_REPEATS) until
 MAX_REPEATS = 20
 REFERENCE_CANDIDATES = (("DOP853", 1e-13), ("LSODA", 1e-13), ("Radau", 1e-12), ("BDF", 1e-12))
 EXPLICIT = ("RK45", "RK23", "DOP853")
-ESTIMATE_FACTOR = 1e-3             # estimate_error re-solves at rtol * 1e-3 ...
-ESTIMATE_FLOOR = 1e-13             # ... but not below 1e-13
 
 
 def family(method: str) -> str:
@@ -79,89 +77,23 @@ def family(method: str) -> str:
     return "LSODA" if method in ("auto", "odeint", "LSODA") else method
 
 
-# ----------------------------------------------------------------------------
-# error norm
-# ----------------------------------------------------------------------------
-def state_scale(reference: np.ndarray) -> np.ndarray:
-    """s_i = max(1, max_k |xref_i|): absolute error for O(1) states, relative for large ones."""
-    return np.maximum(1.0, np.abs(reference).max(axis=0))
-
-
-def state_error(x: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
-    """(max over the grid, value at the last row) of max_i |x_i - xref_i| / s_i."""
-    if x.shape != reference.shape:
-        raise ValueError(f"solution rows {x.shape} do not match the reference {reference.shape}")
-    per_row = (np.abs(x - reference) / state_scale(reference)).max(axis=1)
-    return float(per_row.max()), float(per_row[-1])
-
-
-# ----------------------------------------------------------------------------
-# a call budget around a compiled robot
-# ----------------------------------------------------------------------------
-class OverBudget(Exception):
-    """Raised from inside an integrator when a run exceeds its RHS-call budget."""
-
-    def __init__(self, calls: int, t: float, seconds: bool = False):
-        super().__init__(f"over {'time' if seconds else 'budget'} after {calls} RHS calls "
-                         f"at t = {t:g} s")
-        self.calls, self.t, self.seconds = calls, t, seconds
-
-
-class BudgetedRobot:
-    """A ``CompiledRobot`` whose RHS raises ``OverBudget`` after ``budget`` calls.
-
-    Everything else (counters, Jacobian, failure record) is the wrapped
-    robot's, so ``integrators.integrate`` uses it unchanged.  ``t_reached``
-    is the latest time at which the RHS was evaluated.
-    """
-
-    def __init__(self, robot: CompiledRobot, budget: int | None, seconds: float | None = None):
-        self._robot, self.budget, self.t_reached = robot, budget, -math.inf
-        self.deadline = None if seconds is None else time.perf_counter() + seconds
-
-    def __getattr__(self, name):
-        return getattr(self._robot, name)
-
-    def reset_counters(self) -> None:
-        self._robot.reset_counters()
-        self.t_reached = -math.inf
-
-    def rhs(self, t, x):
-        calls = self._robot.rhs_calls
-        if self.budget is not None and calls >= self.budget:
-            raise OverBudget(calls, self.t_reached)
-        if self.deadline is not None and calls % 64 == 0 and time.perf_counter() > self.deadline:
-            raise OverBudget(calls, self.t_reached, seconds=True)
-        self.t_reached = max(self.t_reached, float(t))
-        return self._robot.rhs(t, x)
-
-    def rhs_tfirst(self, x, t):
-        return self.rhs(t, x)
-
-    def jacobian(self, t, x):
-        return self._robot.jacobian(t, x)
-
-
-def run(robot: CompiledRobot, x0: np.ndarray, grid: np.ndarray, method: str, rtol: float,
+def run(problem: Problem, x0: np.ndarray, grid: np.ndarray, method: str, rtol: float,
         atol: float, budget: int | None = None, seconds: float | None = None):
-    """(solution or None, wall seconds, OverBudget or None) of one budgeted run.
+    """(solution, wall seconds) of one budgeted, timed run.
 
     The cyclic garbage collector is off while it runs, as in ``timeit``: its
     full passes over the references' many objects would otherwise land in
     whichever runs come first and double their times.
     """
-    budgeted = BudgetedRobot(robot, budget, seconds)
     enabled = gc.isenabled()
     gc.disable()
     start = time.perf_counter()
     try:
-        solution = integrators.integrate(budgeted, x0, grid, method, rtol, atol)
-    except OverBudget as over:
-        return None, time.perf_counter() - start, over
+        solution = integrators.integrate(problem, x0, grid, method, rtol, atol, budget, seconds)
     finally:
         if enabled:
             gc.enable()
-    return solution, time.perf_counter() - start, None
+    return solution, time.perf_counter() - start
 
 
 # ----------------------------------------------------------------------------
@@ -187,17 +119,17 @@ class Reference:
         return f"{self.method} rtol {self.rtol:g}"
 
 
-def _stability_bound(robot: CompiledRobot, x0: np.ndarray, grid: np.ndarray) -> float:
+def _stability_bound(problem: Problem, x0: np.ndarray, grid: np.ndarray) -> float:
     """Lower bound on DOP853's RHS calls from the fastest decay at the start.
 
     DOP853's stability interval on the negative real axis is about 6/h, and it
     makes 12 RHS calls per step: calls >= 12 * |lambda| T / 6 = 2 |lambda| T.
     """
-    analysis = integrators.stiffness(robot, grid[0], x0, grid[-1] - grid[0])
+    analysis = integrators.stiffness(problem, grid[0], x0, grid[-1] - grid[0])
     return 2.0 * analysis.fastest * analysis.horizon
 
 
-def references(robot: CompiledRobot, x0: np.ndarray, grid: np.ndarray, count: int = 2,
+def references(problem: Problem, x0: np.ndarray, grid: np.ndarray, count: int = 2,
                budget: int = REFERENCE_CALLS, exclude: tuple[str, ...] = (),
                candidates=REFERENCE_CANDIDATES,
                seconds: float = REFERENCE_SECONDS) -> tuple[list[Reference], list[Reference]]:
@@ -216,13 +148,14 @@ def references(robot: CompiledRobot, x0: np.ndarray, grid: np.ndarray, count: in
             continue
         atol = rtol * ATOL_RATIO
         if method in EXPLICIT:
-            bound = _stability_bound(robot, x0, grid)
+            bound = _stability_bound(problem, x0, grid)
             if bound > budget:
                 given_up.append(Reference(method, rtol, atol, None, note=(
                     f"skipped: stiff, its stability bound alone is ~{bound:.2g} RHS calls "
                     f"(budget {budget})")))
                 continue
-        solution, wall, over = run(robot, x0, grid, method, rtol, atol, budget, seconds)
+        solution, wall = run(problem, x0, grid, method, rtol, atol, budget, seconds)
+        over = solution.over_budget
         if over is not None:
             limit = f"{seconds:g} s" if over.seconds else f"{budget} RHS calls"
             given_up.append(Reference(method, rtol, atol, None, wall, over.calls, note=(
@@ -260,6 +193,7 @@ class Row:
     steps: int = 0
     reference: str = ""
     note: str = ""
+    drift: float = math.nan        # closed chains: largest constraint residual along the run
 
     @property
     def ok(self) -> bool:
@@ -324,52 +258,24 @@ class AccuracyStudy:
         return levels
 
 
-def parse_methods(text: str | None) -> tuple[str, ...]:
-    if not text:
-        return integrators.METHODS
-    methods = tuple(m.strip() for m in text.replace(" ", ",").split(",") if m.strip())
-    for m in methods:
-        if m not in integrators.METHODS:
-            raise ModelError(f"--methods: unknown method {m!r}; choose from "
-                             f"{', '.join(integrators.METHODS)}")
-    return tuple(dict.fromkeys(methods))
-
-
-def parse_tolerances(text: str | None) -> tuple[float, ...]:
-    if not text:
-        return TOLERANCES
-    values = []
-    for part in text.replace(" ", ",").split(","):
-        if not part.strip():
-            continue
-        try:
-            value = float(part)
-        except ValueError:
-            raise ModelError(f"--tolerances: {part.strip()!r} is not a number") from None
-        if not (math.isfinite(value) and 1e-14 <= value < 1):
-            raise ModelError(f"--tolerances: {part.strip()} is outside 1e-14 .. 1")
-        values.append(value)
-    if not values:
-        raise ModelError("--tolerances: give at least one relative tolerance")
-    return tuple(sorted(set(values), reverse=True))
-
-
-def study(robot: RobotInfo, compiled: CompiledRobot, methods=integrators.METHODS,
+def study(model: NumericModel, methods=integrators.METHODS,
           tolerances=TOLERANCES, repeats: int = REPEATS, max_calls: int = MAX_CALLS,
           reference_calls: int = REFERENCE_CALLS,
           reference_seconds: float = REFERENCE_SECONDS, t_end: float | None = None,
           output_step: float | None = None, progress=None) -> AccuracyStudy:
     """Run every (method, rtol) against the references; see the module docstring."""
     if repeats < 1:
-        raise ModelError(f"--repeats must be at least 1, got {repeats}")
+        raise SettingError("repeats", f"must be at least 1, got {repeats}")
     if max_calls < 100:
-        raise ModelError(f"--max-calls must be at least 100, got {max_calls}")
+        raise SettingError("max_calls", f"must be at least 100, got {max_calls}")
+    robot = model.info
     settings = resolve(robot, t_end=t_end, output_step=output_step)
     grid = output_grid(settings.t_end, settings.output_step)
-    x0 = initial_state(robot)
+    x0 = model.initial_state()
+    problem = model.problem()
     timings: dict = {}
     start = time.perf_counter()
-    refs, given_up = references(compiled, x0, grid, 2, reference_calls,
+    refs, given_up = references(problem, x0, grid, 2, reference_calls,
                                 seconds=reference_seconds)
     timings["references"] = time.perf_counter() - start
     if not refs:
@@ -393,8 +299,9 @@ def study(robot: RobotInfo, compiled: CompiledRobot, methods=integrators.METHODS
                 continue
             if progress:
                 progress(method, rtol)
-            solution, wall, over = run(compiled, x0, grid, method, rtol, atol, max_calls)
-            if over is not None:
+            solution, wall = run(problem, x0, grid, method, rtol, atol, max_calls)
+            if solution.over_budget is not None:
+                over = solution.over_budget
                 over_at = rtol
                 horizon = grid[-1] - grid[0]
                 reached = max(over.t - grid[0], 0.0)
@@ -413,38 +320,16 @@ def study(robot: RobotInfo, compiled: CompiledRobot, methods=integrators.METHODS
             walls = [wall]
             while len(walls) < repeats or (repeats > 1 and sum(walls) < MIN_TIMED
                                            and len(walls) < MAX_REPEATS):
-                walls.append(run(compiled, x0, grid, method, rtol, atol, None)[1])
+                walls.append(run(problem, x0, grid, method, rtol, atol)[1])
             max_error, final_error = state_error(solution.x, ref.x)
             rows.append(Row(method, rtol, atol, "ok", solution.method, max_error, final_error,
                             min(walls), solution.rhs_calls, solution.jacobian_calls,
                             solution.steps, ref.describe()))
+            if constrained.is_constrained(model):     # constraint drift, part of the error
+                rows[-1].drift = max(constrained.drift(model, solution.t, solution.x))
     timings["study"] = time.perf_counter() - start
     return AccuracyStudy(robot, settings.t_end, settings.output_step, grid, refs, given_up,
                          ref_error, rows, repeats, max_calls, timings)
-
-
-# ----------------------------------------------------------------------------
-# every run knows its error
-# ----------------------------------------------------------------------------
-def estimate_error(result, compiled: CompiledRobot) -> float:
-    """Estimated global error of a simulation: max over its grid, in ``state_error``'s norm.
-
-    The run is repeated by the same method (``auto``'s choice, e.g. odeint)
-    at rtol * 1e-3 and atol * 1e-3 (rtol not below 1e-13); by tolerance
-    proportionality the re-solve's own error is ~1000x smaller, so the
-    difference is the run's error.  At rtol <= 1e-13 there is no tighter
-    re-solve and the estimate is only an upper bound of the re-solve noise.
-    NaN if the re-solve fails.
-    """
-    solution = result.solution
-    settings = result.settings
-    rtol = max(settings.rtol * ESTIMATE_FACTOR, ESTIMATE_FLOOR)
-    atol = settings.atol * (rtol / settings.rtol)
-    method = solution.method            # what ran: auto's choice, not "auto" again
-    fine = integrators.integrate(compiled, result.x[0], solution.t, method, rtol, atol)
-    if not fine.success or len(fine.t) != len(solution.t):
-        return math.nan
-    return state_error(result.x, fine.x)[0]
 
 
 # ----------------------------------------------------------------------------
@@ -457,13 +342,16 @@ CSV_COLUMNS = ("method", "ran", "rtol", "atol", "status", "max_error", "final_er
 def csv_text(result: AccuracyStudy) -> str:
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(CSV_COLUMNS)
+    drift = any(not math.isnan(r.drift) for r in result.rows)     # closed chains
+    writer.writerow(CSV_COLUMNS + (("constraint_drift",) if drift else ()))
     for r in result.rows:
         writer.writerow([r.method, r.ran, f"{r.rtol:.17g}", f"{r.atol:.17g}", r.status,
                          "" if math.isnan(r.max_error) else f"{r.max_error:.17g}",
                          "" if math.isnan(r.final_error) else f"{r.final_error:.17g}",
                          "" if math.isnan(r.wall_s) else f"{r.wall_s:.9g}",
-                         r.rhs_calls, r.jacobian_calls, r.steps, r.reference, r.note])
+                         r.rhs_calls, r.jacobian_calls, r.steps, r.reference, r.note]
+                        + ([("" if math.isnan(r.drift) else f"{r.drift:.17g}")] if drift
+                           else []))
     return buffer.getvalue()
 
 
@@ -486,21 +374,28 @@ def summary(result: AccuracyStudy) -> dict:
                   "final_error": None if math.isnan(r.final_error) else r.final_error,
                   "wall_s": None if math.isnan(r.wall_s) else r.wall_s,
                   "rhs_calls": r.rhs_calls, "jacobian_calls": r.jacobian_calls,
-                  "steps": r.steps, "reference": r.reference, "note": r.note}
+                  "steps": r.steps, "reference": r.reference, "note": r.note,
+                  **({} if math.isnan(r.drift) else {"constraint_drift": r.drift})}
                  for r in result.rows],
         "levels": result.levels(),
         "timings": dict(result.timings),
     }
 
 
-def plot_bytes(result: AccuracyStudy) -> bytes:
-    """Log-log work-precision diagram: max error (x) against run time (y), one line per method."""
-    import matplotlib
-    matplotlib.use("Agg")
+def plot_bytes(result: AccuracyStudy, fmt: str = "png") -> bytes:
+    """The work-precision diagram (``figure``) rendered as png, svg or pdf."""
+    from ..output.plots import figure_bytes
+
+    return figure_bytes(figure(result), fmt)
+
+
+def figure(result: AccuracyStudy):
+    """Log-log work-precision diagram: max error (x) against run time (y), one line per
+    method (a Matplotlib Figure; the global backend is not touched)."""
     from matplotlib.figure import Figure
 
-    figure = Figure(figsize=(7.5, 5.2), layout="constrained")
-    ax = figure.subplots()
+    fig = Figure(figsize=(7.5, 5.2), layout="constrained")
+    ax = fig.subplots()
     markers = "osD^v<>ph*"
     methods = list(dict.fromkeys(r.method for r in result.rows))
     for k, method in enumerate(methods):
@@ -517,8 +412,11 @@ def plot_bytes(result: AccuracyStudy) -> bytes:
         ax.axvline(result.reference_error, color="grey", linestyle="--", linewidth=1,
                    label=f"reference error ~{result.reference_error:.1e}")
     skipped = sorted({r.method for r in result.rows if r.status in ("over budget", "skipped")})
-    title = (f"{result.robot.name}: work-precision, {result.t_end:g} s, "
-             f"max error over {len(result.grid)} rows")
+    formulation = getattr(result, "formulation", "")
+    title = (f"{result.robot.name}: work-precision{', ' + formulation if formulation else ''}, "
+             f"{result.t_end:g} s, max error over {len(result.grid)} rows, "
+             f"rtol {min(r.rtol for r in result.rows):.0e}..{max(r.rtol for r in result.rows):.0e}"
+             f", atol = rtol x {ATOL_RATIO:g}")
     if skipped:
         title += f"\nover {result.max_calls} RHS calls (not shown): {', '.join(skipped)}"
     ax.set_title(title, fontsize=10)
@@ -526,19 +424,20 @@ def plot_bytes(result: AccuracyStudy) -> bytes:
     ax.set_ylabel(f"run time, s (min of {result.repeats})")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize="small", loc="best")
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=110)
-    return buffer.getvalue()
+    return fig
 
 
-def write(result: AccuracyStudy, out: Path, plot: bool = True) -> list[Path]:
-    """accuracy.csv, accuracy.png and accuracy.json in ``out``."""
+def write(result: AccuracyStudy, out: Path, plot: bool = True,
+          plot_format: str = "png") -> list[Path]:
+    """accuracy.csv, accuracy.png (or .svg, .pdf) and accuracy.json in ``out``."""
+    from ..output.plots import plot_path
+
     out = output.prepare_dir(out)
     written = [out / "accuracy.csv"]
     output.write_text(written[0], csv_text(result))
     if plot:
-        written.append(out / "accuracy.png")
-        output.write_bytes(written[-1], plot_bytes(result))
+        written.append(plot_path(out, "accuracy", plot_format))
+        output.write_bytes(written[-1], plot_bytes(result, plot_format))
     written.append(out / "accuracy.json")
     output.write_json(written[-1], summary(result))
     return written
@@ -587,7 +486,9 @@ def table(result: AccuracyStudy) -> str:
         elif r.ok:
             mark = "*" if r.max_error <= floor else ""
             note = " ".join(p for p in ((f"ran {r.ran}" if r.ran != r.method else ""),
-                                        "vs " + r.reference.split(" rtol")[0], r.note) if p)
+                                        "vs " + r.reference.split(" rtol")[0], r.note,
+                                        "" if math.isnan(r.drift) else
+                                        f"constraint drift {r.drift:.1e}") if p)
             lines.append(f"{r.method:<7} {r.rtol:7.0e} {r.max_error:9.2e}{mark or ' '} "
                          f"{r.final_error:10.2e} {_ms(r.wall_s):>9} {r.rhs_calls:7d} "
                          f"{r.jacobian_calls:5d} {r.steps:6d}  {note}")

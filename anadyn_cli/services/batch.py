@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
-from ..output import files as output
+from .. import files as output
 from ..errors import CheckFailed, ModelError
 
 COMMANDS = ("simulate", "inverse", "compare", "accuracy", "check")
@@ -396,11 +396,15 @@ def tail(text: str, count: int = TAIL_LINES) -> str:
 
 
 def run(batch: Batch, out: Path, workers: int | None = None, on_start=None,
-        on_done=None) -> BatchResult:
-    """Run every job, ``workers`` at a time (default: all cores).
+        on_done=None, scheduler=None) -> BatchResult:
+    """Run every job, ``workers`` at a time (default: all cores), or on the Dask
+    cluster of ``scheduler`` (an address or a ``distributed.Client``; see
+    ``run_on_cluster``).
 
     ``on_start(job)`` and ``on_done(result, finished, total)`` report progress.
     """
+    if scheduler is not None:
+        return run_on_cluster(batch, out, scheduler, on_start, on_done)
     workers = (os.cpu_count() or 1) if workers is None else workers
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ModelError(f"--jobs must be 1 or more, got {workers}")
@@ -428,7 +432,83 @@ def run(batch: Batch, out: Path, workers: int | None = None, on_start=None,
                        time.perf_counter() - start, started)
 
 
-def check(result: BatchResult) -> None:
+def run_on_cluster(batch: Batch, out: Path, scheduler, on_start=None,
+                   on_done=None) -> BatchResult:
+    """Every job on a Dask cluster (``services.executors``), one task each.
+
+    No shared file system is needed: the robot file travels with its job, the
+    job runs in a temporary folder on a worker (``run_remote``), and its
+    results, stdout.txt and stderr.txt come back and are written here, to
+    ``OUT/<command>/<name>/``, then judged as a local job is.  A job whose worker
+    is lost reruns elsewhere; one that cannot run at all is a miss that says why.
+    """
+    from . import executors
+
+    out = output.prepare_dir(out)
+    started = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    start = time.perf_counter()
+    pieces = [(job, Path(job.robot).name, Path(job.robot).read_bytes()) for job in batch.jobs]
+    results: dict[int, JobResult] = {}
+    for job in batch.jobs:
+        if on_start is not None:
+            on_start(job)
+
+    def finished(index: int, value) -> None:
+        results[index] = _collect(batch.jobs[index], value, out)
+        if on_done is not None:
+            on_done(results[index], len(results), len(batch.jobs))
+
+    ran = executors.run(executors.Work(_no_setup, run_remote, None, label="anadyn-batch"),
+                        pieces, scheduler=scheduler, on_done=finished)
+    return BatchResult(batch, [results[i] for i in range(len(batch.jobs))], ran.workers,
+                       time.perf_counter() - start, started)
+
+
+def _no_setup(payload) -> None:
+    return None
+
+
+def run_remote(state, piece) -> tuple:
+    """On a worker: one job in a temporary folder; (exit code, wall, stdout, stderr,
+    {file name: bytes} of its result folder)."""
+    import tempfile
+    from dataclasses import replace
+
+    job, robot_name, robot_bytes = piece
+    with tempfile.TemporaryDirectory(prefix="anadyn-batch-") as folder:
+        robot = Path(folder) / "robot" / robot_name
+        robot.parent.mkdir()
+        robot.write_bytes(robot_bytes)
+        here = replace(job, robot=str(robot))
+        result = run_job(here, Path(folder) / "out")
+        results = here.folder(Path(folder) / "out")
+        files = {p.name: p.read_bytes() for p in sorted(results.iterdir()) if p.is_file()}
+    text = [t.replace(str(robot), job.robot) for t in (result.stdout, result.stderr)]
+    for name in ("stdout.txt", "stderr.txt"):
+        files[name] = files.get(name, b"").decode("utf-8", "replace").replace(
+            str(robot), job.robot).encode("utf-8")
+    return result.exit_code, result.wall, text[0], text[1], files
+
+
+def _collect(job: Job, value, out: Path) -> JobResult:
+    """A job's result from the cluster: files written here, then judged."""
+    folder = output.prepare_dir(job.folder(out))
+    if isinstance(value, BaseException):
+        why = f"{type(value).__name__}: {value}".splitlines()[0]
+        result = JobResult(job, None, 0.0, "", f"anadyn batch: not run on the cluster: {why}")
+        output.write_text(folder / "stderr.txt", result.stderr)
+        judge(result, None)
+        return result
+    code, wall, stdout, stderr, files = value
+    for name, data in files.items():
+        output.write_bytes(folder / name, data)
+    result = JobResult(job, code, wall, stdout, stderr)
+    figures = f"{job.command}.json"
+    judge(result, folder / figures if figures in files else None)
+    return result
+
+
+def raise_if_failed(result: BatchResult) -> None:
     """CheckFailed naming each job that missed its expectation."""
     failed = result.failed
     if failed:
@@ -547,7 +627,11 @@ def write(result: BatchResult, out: Path) -> list[Path]:
 
 
 class Progress:
-    """A progress line on a terminal, else one plain line per finished job (CI logs)."""
+    """Progress of a batch.  On a terminal (``live``): a bar with the jobs done and
+    failed and the elapsed time, and one line per running job naming it with its
+    own clock, all redrawn several times a second by rich on its own thread (so
+    the clocks tick while jobs run); a missed job's line stays on screen.  Else
+    (a pipe, a file, or ``CI`` set): one plain line per finished job, for CI logs."""
 
     def __init__(self, stream, live: bool, total: int):
         import threading
@@ -555,40 +639,58 @@ class Progress:
         self.stream, self.live, self.total = stream, live, total
         self.start, self.failed, self.finished, self.running = time.perf_counter(), 0, 0, 0
         self.lock = threading.Lock()            # jobs start on worker threads
+        self.bars = None
+        self.rows: dict[int, object] = {}       # id(job) -> its line
+        if live:
+            from rich.console import Console
+            from rich.progress import (BarColumn, Progress as Bars, SpinnerColumn,
+                                       TextColumn, TimeElapsedColumn)
+
+            console = Console(file=stream, force_terminal=True)
+            self.bars = Bars(SpinnerColumn(), TextColumn("{task.description}", markup=False),
+                             BarColumn(bar_width=24), TextColumn("{task.fields[status]}",
+                                                                 markup=False),
+                             TimeElapsedColumn(), console=console, transient=True,
+                             refresh_per_second=4)
+            self.overall = self.bars.add_task("batch", total=max(1, total),
+                                              status=self._status())
+            self.bars.start()
 
     @staticmethod
     def wanted(stream) -> bool:
         return bool(getattr(stream, "isatty", lambda: False)()) and not os.environ.get("CI")
 
+    def _status(self) -> str:
+        return (f"{self.finished}/{self.total} done, {self.running} running, "
+                f"{self.failed} failed")
+
     def started(self, job: Job) -> None:
         with self.lock:
             self.running += 1
-            if self.live:
-                self._draw()
+            if self.bars is not None:
+                self.rows[id(job)] = self.bars.add_task(f"  {job.command} {job.name}",
+                                                        total=None, status="running")
+                self.bars.update(self.overall, status=self._status())
 
     def done(self, result: JobResult, finished: int, total: int) -> None:
         with self.lock:
             self.running -= 1
             self.finished = finished
             self.failed += not result.ok
-            if self.live:
+            if self.bars is not None:
+                row = self.rows.pop(id(result.job), None)
+                if row is not None:
+                    self.bars.remove_task(row)
                 if not result.ok:          # keep the misses on screen
-                    self.stream.write("\r\033[K" + job_line(result, finished, total) + "\n")
-                self._draw()
+                    self.bars.console.print(job_line(result, finished, total), markup=False,
+                                            highlight=False)
+                self.bars.update(self.overall, completed=finished, status=self._status())
             else:
                 self.stream.write(job_line(result, finished, total) + "\n")
-            self.stream.flush()
+                self.stream.flush()
 
     def close(self) -> None:
-        if self.live:
-            self.stream.write("\r\033[K")
-            self.stream.flush()
+        if self.bars is not None:
+            self.bars.stop()
+            self.bars = None
 
-    def _draw(self) -> None:
-        width = 24
-        filled = int(width * self.finished / max(1, self.total))
-        bar = "#" * filled + "-" * (width - filled)
-        self.stream.write(f"\r\033[K[{bar}] {self.finished}/{self.total} done, "
-                          f"{self.running} running, {self.failed} failed, "
-                          f"{time.perf_counter() - self.start:.0f} s")
-        self.stream.flush()

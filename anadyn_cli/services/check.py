@@ -25,9 +25,13 @@ carried along as one more state.  Along that path:
   to full accuracy); the scaled one measures real ill-conditioning, which
   is what costs digits in ``numpy.linalg.solve`` (van der Sluis).  The
   threshold applies to the scaled number; a large raw number is a warning.
-* **Energy balance**: T + V - W - E0 along the path, with W the actuators'
-  work, over the energy scale max(max T, max V - min V, max |W|).  Passive
-  scenes have W = 0 and this is the energy drift.
+* **Energy balance**: T + V - W - W_loads + E_d - E0 along the path, with V
+  gravity's and the joint springs' potential energy, W the actuators' work,
+  W_loads the external loads' work and E_d the energy dissipated by joint
+  damping and friction (>= 0), over the energy scale max(max T,
+  max V - min V, max |W|, max |W_loads|, max E_d).  Passive scenes (no
+  actuators, loads or joint forces) have W = W_loads = E_d = 0 and this is
+  the energy drift.
 
 How W is integrated: it is **augmented to the state**, dW/dt = P(t, x) =
 tau . (B^T dq) (generalized force of the actuators times rate), and stepped
@@ -38,25 +42,27 @@ first milliseconds, far below a 10 ms output step), so a grid quadrature
 would report its own error rather than the integrator's.  Augmenting costs
 one effort and one B evaluation per RHS call; the Jacobian of the augmented
 system is the analytic one bordered by a finite-difference row dP/dx (W
-feeds back into nothing, so the column for W is zero).
+feeds back into nothing, so the column for W is zero).  W_loads and E_d are
+carried the same way, from the model's ``powers``: computed from the
+kinematics (the loads' points' velocities, the joint rates), not from F, so
+a wrong force term in the equations breaks the balance.
 """
 from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..numeric import integrators
-from ..output import files as output
-from .accuracy import run
-from ..numeric.model import CompiledRobot
-from ..errors import CheckFailed, ModelError, NumericalError, positive
+from ..errors import CheckFailed, NumericalError, SettingError, positive
 from ..model.info import RobotInfo
-from .simulate import initial_state, output_grid, resolve
+from ..numeric import constrained, integrators
+from ..numeric.integrators import Problem
+from ..numeric.model import NumericModel, scaled_condition
+from ..numeric.settings import output_grid, resolve
+from .. import files as output
 
 SAMPLES = 200                 # Jacobian eigenvalue samples along the path
 PROBE_CALLS = 5_000           # RHS calls for the loose explicit probe (4x for the tight one)
@@ -119,10 +125,19 @@ class StabilityReport:
     checks: list[Check] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     timings: dict = field(default_factory=dict)
+    load_work: np.ndarray | None = None   # loads' work W_loads(t); None: no loads or
+    dissipated: np.ndarray | None = None  # joint forces; energy dissipated E_d(t) >= 0
+    constraints: "constrained.ConstraintCheck | None" = None   # closed chains
 
     @property
     def passive(self) -> bool:
-        return not self.robot.actuators
+        return not self.robot.actuators and self.load_work is None
+
+    @property
+    def balance(self) -> str:
+        """The balance checked, e.g. T + V - W - W_loads + E_d - E0."""
+        return ("T + V" + ("" if not self.robot.actuators else " - W")
+                + ("" if self.load_work is None else " - W_loads + E_d") + " - E0")
 
     @property
     def stiff(self) -> bool:
@@ -148,76 +163,70 @@ class StabilityReport:
 # ----------------------------------------------------------------------------
 # the path, with the actuators' work
 # ----------------------------------------------------------------------------
-def actuator_power(compiled: CompiledRobot, t: float, x: np.ndarray) -> float:
+def actuator_power(model: NumericModel, t: float, x: np.ndarray) -> float:
     """P = tau . (B^T dq) = dq . (B tau): the actuators' power at one state."""
-    n = compiled.n
+    n = model.n
     q, dq = x[:n], x[n:]
-    tau = np.asarray(compiled.efforts(t, q, dq), dtype=float).reshape(-1)
-    _, _, B = compiled.mfb(q, dq)
+    tau = np.asarray(model.efforts(t, q, dq), dtype=float).reshape(-1)
+    _, _, B = model.mfb(t, q, dq)
     return float(dq @ (np.asarray(B).reshape(n, -1) @ tau))
 
 
-def integrate_with_work(compiled: CompiledRobot, x0: np.ndarray, grid: np.ndarray,
-                        rtol: float, atol: float, actuated: bool):
-    """(x on the grid, W on the grid, rhs calls, wall) by odeint on [x, W].
+def external_powers(model: NumericModel, t: float, x: np.ndarray) -> np.ndarray:
+    """[P_loads, P_dissipated] at one state: the loads' power and the power that joint
+    damping and friction dissipate (>= 0)."""
+    n = model.n
+    return np.asarray(model.powers(t, x[:n], x[n:]), dtype=float).reshape(2)
 
-    Raises NumericalError when the integration fails.
-    """
-    from scipy.integrate import odeint
 
-    n2 = len(x0)
+def with_work(model: NumericModel, actuated: bool) -> Problem:
+    """The direct dynamics with the actuators' work W as one more state, W' = P; with
+    loads or joint forces also their work W_loads and the dissipated energy E_d."""
+    n2 = 2 * model.n
+    extra = 3 if model.has_forces else 1
 
-    def rhs(y, t):
-        out = np.empty(n2 + 1)
-        out[:n2] = compiled.rhs(t, y[:n2])
-        out[n2] = actuator_power(compiled, t, y[:n2]) if actuated else 0.0
+    def powers(t, x):
+        out = np.zeros(extra)
+        if actuated:
+            out[0] = actuator_power(model, t, x)
+        if extra > 1:
+            out[1:] = external_powers(model, t, x)
         return out
 
-    def jacobian(y, t):
-        J = np.zeros((n2 + 1, n2 + 1))
+    def rhs(t, y):
+        out = np.empty(n2 + extra)
+        out[:n2] = model.rhs(t, y[:n2])
+        out[n2:] = powers(t, y[:n2])
+        return out
+
+    def jacobian(t, y):
+        J = np.zeros((n2 + extra, n2 + extra))
         x = y[:n2]
-        J[:n2, :n2] = compiled.jacobian(t, x)
-        if actuated:
-            p0 = actuator_power(compiled, t, x)
+        J[:n2, :n2] = model.jacobian(t, x)
+        if actuated or extra > 1:
+            p0 = powers(t, x)
             for j in range(n2):
                 h = 1.5e-8 * max(1.0, abs(x[j]))
                 shifted = x.copy()
                 shifted[j] += h
-                J[n2, j] = (actuator_power(compiled, t, shifted) - p0) / h
+                J[n2:, j] = (powers(t, shifted) - p0) / h
         return J
 
-    compiled.reset_counters()
-    start = time.perf_counter()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        y, info = odeint(rhs, np.append(x0, 0.0), grid, Dfun=jacobian, rtol=rtol, atol=atol,
-                         full_output=True, mxstep=10**6)
-    wall = time.perf_counter() - start
-    ok = info["message"].startswith("Integration successful") and np.isfinite(y).all()
-    if not ok:
-        if compiled.failure is not None:
-            t_fail, _, why = compiled.failure
-            raise NumericalError(f"{why} at t = {t_fail:.6g} s; the path cannot be checked")
-        raise NumericalError(f"integration failed after t = {info['tcur'].max():.6g} s "
-                             f"({info['message'].strip()}); the path cannot be checked")
-    return y[:, :n2], y[:, n2], compiled.rhs_calls, wall
+    names = ("W", "W_loads", "E_d")[:extra]
+    return Problem(rhs, jacobian, (*model.state_names(), *names), model.diagnose)
 
 
-# ----------------------------------------------------------------------------
-# eigenvalues, the explicit probe, the mass matrix
-# ----------------------------------------------------------------------------
-def eigen_samples(compiled: CompiledRobot, t: np.ndarray, x: np.ndarray, samples: int):
+def eigen_samples(model: NumericModel, t: np.ndarray, x: np.ndarray, samples: int):
     """(sample times, decay, growth, speed, classic ratio) of the state Jacobian."""
     floor = 1.0 / max(t[-1] - t[0], 1e-300)
     index = np.unique(np.linspace(0, len(t) - 1, min(samples, len(t))).round().astype(int))
     decay, growth, speed, classic = [], [], [], []
     for k in index:
-        J = compiled.jacobian(t[k], x[k])
-        if not np.isfinite(J).all():
+        lam = integrators.eigenvalues(model.jacobian, t[k], x[k])
+        if lam is None:
             decay.append(np.nan), growth.append(np.nan), speed.append(np.nan)
             classic.append(np.nan)
             continue
-        lam = np.linalg.eigvals(J)
         re = lam.real
         size = np.abs(lam).max(initial=0.0)
         decaying = -re[re < -1e-9 * max(size, 1.0)]
@@ -228,81 +237,94 @@ def eigen_samples(compiled: CompiledRobot, t: np.ndarray, x: np.ndarray, samples
     return (t[index], np.array(decay), np.array(growth), np.array(speed), np.array(classic))
 
 
-def explicit_probe(compiled: CompiledRobot, x0: np.ndarray, t0: float, t_end: float,
+def explicit_probe(problem: Problem, x0: np.ndarray, t0: float, t_end: float,
                    calls: int = PROBE_CALLS) -> Probe:
     """RK45 at a loose and a tight tolerance over the same window; see the module docstring."""
     loose, tight = PROBE_RTOLS
-    solution, _, over = run(compiled, x0, np.array([t0, t_end]), "RK45", loose,
-                            loose * 1e-2, calls)
-    if over is not None:
-        window, loose_calls, loose_capped = over.t, calls, True
+    solution = integrators.integrate(problem, x0, np.array([t0, t_end]), "RK45", loose,
+                                     loose * 1e-2, budget=calls)
+    if solution.over_budget is not None:
+        window, loose_calls, loose_capped = solution.over_budget.t, calls, True
     else:
         window = solution.t[-1] if not solution.success else t_end
         loose_calls, loose_capped = solution.rhs_calls, False
     if window <= t0:
         return Probe(0.0, loose_calls, loose_calls, loose_capped, False)
-    solution, _, over = run(compiled, x0, np.array([t0, window]), "RK45", tight,
-                            tight * 1e-2, 4 * calls)
-    tight_calls = 4 * calls if over is not None else solution.rhs_calls
-    return Probe(window - t0, loose_calls, tight_calls, loose_capped, over is not None)
+    solution = integrators.integrate(problem, x0, np.array([t0, window]), "RK45", tight,
+                                     tight * 1e-2, budget=4 * calls)
+    over = solution.over_budget is not None
+    tight_calls = 4 * calls if over else solution.rhs_calls
+    return Probe(window - t0, loose_calls, tight_calls, loose_capped, over)
 
 
-def mass_conditions(compiled: CompiledRobot, t: np.ndarray, x: np.ndarray):
+def mass_conditions(model: NumericModel, t: np.ndarray, x: np.ndarray):
     """(times, raw, scaled) condition numbers of M at up to 20,000 rows."""
     stride = max(1, math.ceil(len(t) / CONDITION_ROWS))
     rows = np.arange(0, len(t), stride)
-    n = compiled.n
+    n = model.n
     q, dq = x[rows, :n].T, x[rows, n:].T
-    M = np.asarray(compiled.mfb(q, dq)[0], dtype=float).reshape(len(rows), n, n)
-    raw = np.linalg.cond(M)
-    d = np.sqrt(np.abs(np.diagonal(M, axis1=1, axis2=2)))
-    d[d == 0] = 1.0
-    scaled = np.linalg.cond(M / (d[:, :, None] * d[:, None, :]))
-    return t[rows], raw, scaled
+    M = np.asarray(model.mfb(t[rows], q, dq)[0], dtype=float).reshape(len(rows), n, n)
+    return t[rows], np.linalg.cond(M), scaled_condition(M)
 
 
 # ----------------------------------------------------------------------------
 # the report
 # ----------------------------------------------------------------------------
-def check(robot: RobotInfo, compiled: CompiledRobot, rtol: float | None = None,
+def check(model: NumericModel, rtol: float | None = None,
           atol: float | None = None, t_end: float | None = None,
           output_step: float | None = None, samples: int = SAMPLES,
           max_condition: float = MAX_CONDITION, energy_tol: float = ENERGY_TOL,
           probe_calls: int = PROBE_CALLS) -> StabilityReport:
     """Simulate ``robot`` and examine the path; see the module docstring."""
-    positive("--max-condition", max_condition)
-    positive("--energy-tol", energy_tol)
-    if samples < 1 or probe_calls < 100:
-        raise ModelError("--samples must be at least 1 and --probe-calls at least 100")
+    positive("max_condition", max_condition)
+    positive("energy_tol", energy_tol)
+    if samples < 1:
+        raise SettingError("samples", f"must be at least 1, got {samples}")
+    if probe_calls < 100:
+        raise SettingError("probe_calls", f"must be at least 100, got {probe_calls}")
+    robot = model.info
     settings = resolve(robot, rtol=rtol, atol=atol, t_end=t_end, output_step=output_step)
     grid = output_grid(settings.t_end, settings.output_step)
-    x0 = initial_state(robot)
+    x0 = model.initial_state()
     timings: dict = {}
-    actuated = bool(robot.actuators)
-    x, work, calls, wall = integrate_with_work(compiled, x0, grid, settings.rtol,
-                                               settings.atol, actuated)
+    extra = 3 if model.has_forces else 1
+    solution = integrators.integrate(with_work(model, bool(robot.actuators)),
+                                     np.append(x0, np.zeros(extra)), grid, "odeint",
+                                     settings.rtol, settings.atol)
+    if not solution.success:
+        raise NumericalError(f"{solution.message}; the path cannot be checked")
+    n2 = len(x0)
+    x, work, calls, wall = solution.x[:, :n2], solution.x[:, n2], solution.rhs_calls, solution.wall
+    load_work, dissipated = ((solution.x[:, n2 + 1], solution.x[:, n2 + 2]) if extra > 1
+                             else (None, None))
     timings["solve"] = wall
 
     start = time.perf_counter()
-    sample_t, decay, growth, speed, classic = eigen_samples(compiled, grid, x, samples)
+    sample_t, decay, growth, speed, classic = eigen_samples(model, grid, x, samples)
     timings["eigenvalues"] = time.perf_counter() - start
     start = time.perf_counter()
-    probe = explicit_probe(compiled, x0, grid[0], grid[-1], probe_calls)
+    probe = explicit_probe(model.problem(), x0, grid[0], grid[-1], probe_calls)
     timings["probe"] = time.perf_counter() - start
     start = time.perf_counter()
-    cond_t, raw, scaled = mass_conditions(compiled, grid, x)
-    n = compiled.n
-    T, V = compiled.energy(x[:, :n].T, x[:, n:].T)
+    cond_t, raw, scaled = mass_conditions(model, grid, x)
+    n = model.n
+    T, V = model.energy(x[:, :n].T, x[:, n:].T)
     T, V = np.asarray(T, dtype=float), np.asarray(V, dtype=float)
     E = T + V
     residual = E - work - E[0]
     scale = max(float(T.max()), float(V.max() - V.min()), float(np.abs(work).max()))
+    if load_work is not None:
+        residual = residual - load_work + dissipated
+        scale = max(scale, float(np.abs(load_work).max()), float(dissipated.max()))
     scale = scale if scale > 0 else 1.0
     timings["mass_and_energy"] = time.perf_counter() - start
 
     report = StabilityReport(robot, float(grid[-1]), settings.rtol, settings.atol, grid, x,
                              work, calls, wall, sample_t, decay, growth, speed, classic, raw,
-                             scaled, cond_t, residual, scale, probe, timings=timings)
+                             scaled, cond_t, residual, scale, probe, timings=timings,
+                             load_work=load_work, dissipated=dissipated)
+    if constrained.is_constrained(model):      # constraint Jacobian along the path
+        report.constraints = constrained.conditioning(model, grid, x)
     _judge(report, max_condition, energy_tol)
     return report
 
@@ -311,7 +333,7 @@ def _judge(report: StabilityReport, max_condition: float, energy_tol: float) -> 
     what = "energy drift" if report.passive else "energy balance"
     error = report.energy_error
     report.checks.append(Check(what, error, energy_tol, error <= energy_tol, (
-        f"{what}: max |T + V{'' if report.passive else ' - W'} - E0| / scale = {error:.2e}"
+        f"{what}: max |{report.balance}| / scale = {error:.2e}"
         f" (threshold {energy_tol:.0e})")))
     worst = float(np.nanmax(report.scaled_condition))
     report.checks.append(Check("mass matrix conditioning", worst, max_condition,
@@ -335,10 +357,32 @@ def _judge(report: StabilityReport, max_condition: float, energy_tol: float) -> 
         report.warnings.append(
             f"unstable modes along the path (Re lambda up to {growth:.3g} 1/s): nearby paths "
             "diverge, so errors can grow faster than the tolerance suggests")
+    if report.constraints is not None:
+        _judge_constraints(report, max_condition)
     for c in report.checks:
         if not c.passed:
             report.warnings.append(f"{c.name} misses its threshold: {c.value:.3g} > "
                                    f"{c.threshold:.0e}")
+
+
+def _judge_constraints(report: StabilityReport, max_condition: float) -> None:
+    """Closed chains: the constraint Jacobian A must keep its rank (a singular A is a
+    locked or singular configuration: fail above ``max_condition``); a large
+    condition number of A_d, the Jacobian with respect to the dependent speeds,
+    is a dead point nearby (warning)."""
+    c = report.constraints
+    worst, at = c.worst(c.condition)
+    report.checks.append(Check("constraint Jacobian conditioning", worst, max_condition,
+                               worst <= max_condition, (
+                                   f"constraint Jacobian conditioning: condition number "
+                                   f"{worst:.3g} at t = {at:.4g} s (threshold "
+                                   f"{max_condition:.0e})")))
+    dead, dead_at = c.worst(c.dead)
+    if dead > constrained.DEAD_POINT:
+        report.warnings.append(
+            f"near a dead point at t = {dead_at:.4g} s: the loops barely determine "
+            f"{', '.join(c.dependent)} from the independent coordinates (|A_h| / sigma_min "
+            f"= {dead:.3g}); the mechanism can lock or flip its assembly mode there")
 
 
 def _seconds(value: float) -> str:
@@ -363,7 +407,9 @@ def text(report: StabilityReport) -> str:
     lines = [
         f"{r.robot.name}: {r.t_end:g} s, {len(r.t)} rows, odeint (LSODA) rtol {r.rtol:g} "
         f"atol {r.atol:g}, {r.rhs_calls} RHS calls"
-        + ("" if r.passive else ", actuators' work integrated with the state"),
+        + ("" if r.passive else ", actuators' work integrated with the state"
+           if r.load_work is None else
+           ", actuators' and loads' work and dissipated energy integrated with the state"),
         f"eigenvalues of the Jacobian at {len(r.sample_t)} points along the path:",
         f"  fastest decay        {r.fastest_decay:.4g} 1/s at t = {r.sample_t[k_decay]:.4g} s"
         f" (time constant {_seconds(1 / r.fastest_decay) if r.fastest_decay else 'none'})",
@@ -385,9 +431,15 @@ def text(report: StabilityReport) -> str:
         (f"energy: passive, T + V drifts by at most {np.abs(r.energy_residual).max():.3g} J "
          f"(energy scale {r.energy_scale:.4g} J)" if r.passive else
          f"energy: actuators' work W from {r.work.min():.4g} to {r.work.max():.4g} J; "
-         f"T + V - W - E0 at most {np.abs(r.energy_residual).max():.3g} J (energy scale "
+         f"{r.balance} at most {np.abs(r.energy_residual).max():.3g} J (energy scale "
          f"{r.energy_scale:.4g} J)"),
     ]
+    if r.load_work is not None:
+        lines.insert(-1, f"energy: loads' work W_loads from {r.load_work.min():.4g} to "
+                         f"{r.load_work.max():.4g} J; dissipated by joint damping and "
+                         f"friction E_d = {r.dissipated[-1]:.4g} J at the end")
+    if r.constraints is not None:
+        lines.append(r.constraints.line())
     for c in r.checks:
         lines.append(f"{'ok  ' if c.passed else 'FAIL'} {c.text}")
     for w in r.warnings:
@@ -419,10 +471,13 @@ def summary(report: StabilityReport) -> dict:
         "energy_residual_max": float(np.abs(r.energy_residual).max()),
         "energy_scale": r.energy_scale,
         "actuator_work_final": float(r.work[-1]),
+        "load_work_final": float(r.load_work[-1]) if r.load_work is not None else 0.0,
+        "dissipated_final": float(r.dissipated[-1]) if r.dissipated is not None else 0.0,
         "checks": [{"name": c.name, "value": c.value, "threshold": c.threshold,
                     "passed": c.passed} for c in r.checks],
         "warnings": list(r.warnings),
         "timings": dict(r.timings),
+        **({} if r.constraints is None else {"constraints": r.constraints.summary()}),
     }
 
 
@@ -433,13 +488,15 @@ def write(report: StabilityReport, out: Path) -> list[Path]:
     rows = np.searchsorted(report.t, report.sample_t)
     cond_rows = np.searchsorted(report.condition_t, report.sample_t).clip(
         0, len(report.condition_t) - 1)
+    forces = ([] if report.load_work is None else
+              [("load_work", report.load_work[rows]), ("dissipated", report.dissipated[rows])])
     output.write_csv(written[0], ["t", "fastest_decay", "fastest_growth", "fastest_rate",
                                   "stiffness_ratio", "mass_condition", "mass_condition_scaled",
-                                  "energy_residual", "actuator_work"],
+                                  "energy_residual", "actuator_work", *(f[0] for f in forces)],
                      [report.sample_t, report.decay, report.growth, report.speed,
                       report.classic, report.condition[cond_rows],
                       report.scaled_condition[cond_rows], report.energy_residual[rows],
-                      report.work[rows]])
+                      report.work[rows], *(f[1] for f in forces)])
     written.append(out / "check.json")
     output.write_json(written[-1], summary(report))
     return written

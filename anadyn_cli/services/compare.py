@@ -14,7 +14,8 @@ their agreement checks both.  For each robot:
     states before it is called a mismatch.
 (b) numeric: the compiled ``mfb`` of both formulations at ``samples`` random
     states (coordinates within +-pi rad of the initial value, or
-    +-max(0.1, |q0|) m, rates within +-max(2, 2 |dq0|) of the initial rate), and
+    +-max(0.1, |q0|) m, rates within +-max(2, 2 |dq0|) of the initial rate,
+    times within the simulation's horizon, for F of t through the loads), and
     ddq = M^-1 (F + B tau) with random efforts of the size the control laws
     give at the start.  Per state, with s = the larger max-norm of the two
     values, the difference must satisfy max|lagrange - kane| <= rtol * s.
@@ -38,8 +39,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..output import files as output
-from ..errors import CheckFailed, ModelError, NumericalError, positive
+from .. import files as output
+from ..output import progress
+from ..errors import CheckFailed, NumericalError, SettingError, positive
+from ..numeric import constrained, integrators
+from ..numeric.model import NumericModel
+from ..numeric.settings import output_grid, resolve
 
 SAMPLES = 200
 SEED = 0
@@ -138,6 +143,11 @@ class CompareResult:
     def passed(self) -> bool:
         return all(r.passed for r in self.robots)
 
+    def to_csv(self, path) -> Path:
+        """Write compare.csv (one row per robot and quantity) to ``path``."""
+        output.write_text(Path(path), csv_text(self))
+        return Path(path)
+
 
 # ----------------------------------------------------------------------------
 # (a) symbolic
@@ -166,6 +176,8 @@ def symbolic_check(kane, lagrange, budget: int = SYMBOLIC_TERMS,
             for j in range(a.cols):
                 result.entries += 1
                 difference = b[i, j] - a[i, j]
+                if difference != 0 and _rational(difference):   # closed chains: A_d^-1
+                    difference = sp.fraction(sp.together(difference))[0]
                 if difference == 0:
                     result.proven += 1
                 else:
@@ -242,10 +254,17 @@ def sample_states(info, compiled, count: int, seed: int = SEED):
     return q, dq, tau
 
 
-def accelerations(compiled, q, dq, tau) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """M, F, B (states first) and ddq = M^-1 (F + B tau) at every state."""
+def sample_times(info, count: int, seed: int = SEED) -> np.ndarray:
+    """``count`` times within the robot's horizon (F depends on t through loads)."""
+    horizon = info.simulation.t_end or 10.0
+    return np.random.default_rng([seed, 1]).uniform(0.0, horizon, count)
+
+
+def accelerations(compiled, q, dq, tau, t=0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                        np.ndarray]:
+    """M, F, B (states first) and ddq = M^-1 (F + B tau) at every state (and time)."""
     count = q.shape[1]
-    M, F, B = compiled.mfb(q, dq)
+    M, F, B = compiled.mfb(t, q, dq)
     n, m = compiled.n, tau.shape[0]
     M = np.broadcast_to(M, (count, n, n))
     F = np.broadcast_to(F, (count, n))
@@ -284,31 +303,64 @@ def numeric_check(info, kane, lagrange, samples: int = SAMPLES, seed: int = SEED
                   rtol: float = RTOL) -> dict[str, Difference]:
     """Check (b) on two ``CompiledRobot``s."""
     q, dq, tau = sample_states(info, kane, samples, seed)
+    t = sample_times(info, samples, seed)
     names = [c.name for c in info.coordinates]
 
     def describe(k: int) -> str:
-        values = [f"{n}={v:.6g}" for n, v in zip(names, q[:, k])]
+        values = [f"t={t[k]:.6g}"] if kane.has_forces else []      # F of t: loads
+        values += [f"{n}={v:.6g}" for n, v in zip(names, q[:, k])]
         values += [f"d{n}={v:.6g}" for n, v in zip(names, dq[:, k])]
         return f"state {k}: " + ", ".join(values)
 
     with np.errstate(all="ignore"):
-        ours = accelerations(kane, q, dq, tau)
-        theirs = accelerations(lagrange, q, dq, tau)
+        ours = accelerations(kane, q, dq, tau, t)
+        theirs = accelerations(lagrange, q, dq, tau, t)
     return {name: difference(name, a, b, rtol, describe)
             for name, a, b in zip(QUANTITIES, ours, theirs)}
+
+
+def constrained_check(kane, lagrange, samples: int = SAMPLES, seed: int = SEED,
+                      rtol: float = RTOL) -> dict[str, Difference]:
+    """Closed chains: ddq and the multipliers lambda of both formulations at states on
+    the constraints (``constrained.consistent_states``), replacing the tree's ddq."""
+    t, X, tau = constrained.consistent_states(kane, samples, seed)
+    names = [c.name for c in kane.info.coordinates]
+    if not len(t):
+        return {"ddq": Difference("ddq", math.inf, math.inf, rtol, False,
+                                  note="no state on the constraints found")}
+
+    def describe(k: int) -> str:
+        values = [f"t={t[k]:.6g}"] + [f"{n}={v:.6g}" for n, v in zip(names, X[k, :len(names)])]
+        return f"state {k} on the constraints: " + ", ".join(values)
+
+    with np.errstate(all="ignore"):
+        ours = constrained.accelerations(kane, t, X, tau)
+        theirs = constrained.accelerations(lagrange, t, X, tau)
+    return {"ddq": difference("ddq", ours[0], theirs[0], rtol, describe),
+            "lambda": difference("lambda", ours[1], theirs[1], rtol, describe)}
+
+
+def _rational(expr) -> bool:
+    """Whether ``expr`` divides by something other than a number."""
+    import sympy as sp
+
+    return any(p.exp.is_negative and not p.base.is_number for p in expr.atoms(sp.Pow))
 
 
 # ----------------------------------------------------------------------------
 # (c) trajectory
 # ----------------------------------------------------------------------------
-def trajectory_check(robot, kane, lagrange, tolerance: float = TRAJECTORY_TOL,
+def trajectory_check(kane: NumericModel, lagrange: NumericModel,
+                     tolerance: float = TRAJECTORY_TOL,
                      t_end: float | None = None) -> tuple[Difference, str]:
     """Check (c): (difference, failure message or "")."""
-    from .simulate import simulate
-
-    runs = {f: simulate(robot, f, compiled=c, t_end=t_end)
-            for f, c in (("kane", kane), ("lagrange", lagrange))}
-    failed = [f"{f}: {r.solution.message}" for f, r in runs.items() if not r.solution.success]
+    settings = resolve(kane.info, t_end=t_end)
+    grid = output_grid(settings.t_end, settings.output_step)
+    runs = {model.formulation: integrators.integrate(model.problem(), model.initial_state(),
+                                                     grid, settings.method, settings.rtol,
+                                                     settings.atol)
+            for model in (kane, lagrange)}
+    failed = [f"{f}: {r.message}" for f, r in runs.items() if not r.success]
     a, b = runs["kane"], runs["lagrange"]
     rows = min(len(a.t), len(b.t))
     xa, xb = a.x[:rows], b.x[:rows]
@@ -316,8 +368,8 @@ def trajectory_check(robot, kane, lagrange, tolerance: float = TRAJECTORY_TOL,
     scaled = absolute / np.maximum(1.0, np.abs(xa).max(axis=0, initial=0.0))
     per_row = scaled.max(axis=1) if rows else np.zeros(0)
     worst = int(np.argmax(per_row)) if rows else 0
-    note = (f"{rows} rows to {a.t[rows - 1]:g} s, {a.solution.method} rtol "
-            f"{a.settings.rtol:g}" if rows else "no rows")
+    note = (f"{rows} rows to {a.t[rows - 1]:g} s, {a.method} rtol "
+            f"{settings.rtol:g}" if rows else "no rows")
     result = Difference("trajectory", float(absolute.max(initial=0.0)),
                         float(per_row.max(initial=0.0)), tolerance,
                         bool(per_row.max(initial=0.0) <= tolerance),
@@ -330,28 +382,36 @@ def trajectory_check(robot, kane, lagrange, tolerance: float = TRAJECTORY_TOL,
 # ----------------------------------------------------------------------------
 def compare_robot(robot, samples: int = SAMPLES, seed: int = SEED, rtol: float = RTOL,
                   trajectory_tol: float = TRAJECTORY_TOL, symbolic_terms: int = SYMBOLIC_TERMS,
-                  t_end: float | None = None, use_cache: bool = True) -> RobotComparison:
+                  t_end: float | None = None, use_cache: bool = False) -> RobotComparison:
     """Checks (a), (b), (c) for one validated ``Robot``."""
-    from ..numeric.build import compile_robot
+    from ..numeric.build import numeric_model
     from ..symbolic.formulations import derive
-    from ..model.info import RobotInfo
 
     timings: dict = {}
     start = time.perf_counter()
     eoms = {f: derive(robot, f) for f in ("kane", "lagrange")}
+    compared = eoms
+    if robot.constraints is not None:     # closed chains: the reduced equations, Kane's with
+        from ..symbolic.formulations.constrained import reduced_equations   # dependent speeds,
+        compared = {f: reduced_equations(robot, eoms[f], f).reduced        # Lagrange's with
+                    for f in eoms}                                          # multipliers
     timings["derive"] = time.perf_counter() - start
-    symbolic = symbolic_check(eoms["kane"], eoms["lagrange"], symbolic_terms, seed=seed)
+    symbolic = symbolic_check(compared["kane"], compared["lagrange"], symbolic_terms,
+                              seed=seed)
     timings["symbolic"] = symbolic.seconds
     start = time.perf_counter()
-    compiled = {f: compile_robot(robot, f, {}, use_cache=use_cache, eom=eoms[f]) for f in eoms}
+    models = {f: numeric_model(robot, f, use_cache, eom=eoms[f]) for f in eoms}
     timings["compile"] = time.perf_counter() - start
-    info = RobotInfo.from_robot(robot)
     start = time.perf_counter()
-    numeric = numeric_check(info, compiled["kane"], compiled["lagrange"], samples, seed, rtol)
+    numeric = numeric_check(models["kane"].info, models["kane"], models["lagrange"], samples,
+                            seed, rtol)
+    if constrained.is_constrained(models["kane"]):
+        numeric.update(constrained_check(models["kane"], models["lagrange"], samples, seed,
+                                         rtol))
     timings["numeric"] = time.perf_counter() - start
     start = time.perf_counter()
-    trajectory, failure = trajectory_check(robot, compiled["kane"], compiled["lagrange"],
-                                           trajectory_tol, t_end)
+    trajectory, failure = trajectory_check(models["kane"], models["lagrange"], trajectory_tol,
+                                           t_end)
     timings["trajectory"] = time.perf_counter() - start
     return RobotComparison(robot.name, robot.source, symbolic, numeric, trajectory, samples,
                            failure, timings)
@@ -359,34 +419,29 @@ def compare_robot(robot, samples: int = SAMPLES, seed: int = SEED, rtol: float =
 
 def compare(robots, samples: int = SAMPLES, seed: int = SEED, rtol: float = RTOL,
             trajectory_tol: float = TRAJECTORY_TOL, symbolic_terms: int = SYMBOLIC_TERMS,
-            t_end: float | None = None, use_cache: bool = True) -> CompareResult:
+            t_end: float | None = None, use_cache: bool = False) -> CompareResult:
     """Compare Kane and Lagrange on each of ``robots`` (validated ``Robot``s)."""
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
-        raise ModelError(f"--samples must be a positive whole number, got {samples}")
+        raise SettingError("samples", f"must be a positive whole number, got {samples}")
     if symbolic_terms < 0:
-        raise ModelError(f"--symbolic-terms must be 0 or more, got {symbolic_terms}")
-    positive("--tol", rtol)
-    positive("--trajectory-tol", trajectory_tol)
+        raise SettingError("symbolic_terms", f"must be 0 or more, got {symbolic_terms}")
+    positive("numeric_tolerance", rtol)
+    positive("trajectory_tolerance", trajectory_tol)
     if t_end is not None:
-        positive("--t-end", t_end)
+        positive("t_end", t_end)
     start = time.perf_counter()
-    done = [compare_robot(r, samples, seed, rtol, trajectory_tol, symbolic_terms, t_end,
-                          use_cache) for r in robots]
+    done = []
+    with progress.task("comparing kane and lagrange", total=len(robots)) as step:
+        for r in robots:
+            step.note(r.name)
+            done.append(compare_robot(r, samples, seed, rtol, trajectory_tol, symbolic_terms,
+                                      t_end, use_cache))
+            step.advance()
     return CompareResult(done, samples, seed, rtol, trajectory_tol, symbolic_terms,
                          {"total": time.perf_counter() - start})
 
 
-def robot_files(paths) -> list[Path]:
-    """The given files, or every robots/*.yaml."""
-    if paths:
-        return [Path(p) for p in paths]
-    found = sorted(Path("robots").glob("*.yaml"))
-    if not found:
-        raise ModelError("no robot files given and none in robots/*.yaml")
-    return found
-
-
-def check(result: CompareResult) -> None:
+def raise_if_failed(result: CompareResult) -> None:
     """CheckFailed naming each robot and quantity that differs; NumericalError if a
     simulation failed."""
     missed = []
@@ -460,7 +515,8 @@ def settings_line(result: CompareResult) -> str:
 def summary(result: CompareResult) -> dict:
     """Key figures (``compare.json``); ``robots`` is keyed by robot name."""
     robots: dict[str, dict] = {}
-    worst = {q: {"max_abs": 0.0, "max_rel": 0.0} for q in (*QUANTITIES, "trajectory")}
+    worst = {q: {"max_abs": 0.0, "max_rel": 0.0} for q in (*QUANTITIES, "lambda",
+                                                           "trajectory")}
     for r in result.robots:
         key, k = r.name, 2
         while key in robots:

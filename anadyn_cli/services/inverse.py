@@ -1,10 +1,13 @@
 """Inverse dynamics: the actuator efforts that produce a prescribed motion.
 
 Given q(t) from the robot file's ``trajectory`` (exact rates and
-accelerations, see ``trajectory``), the equations M(q) ddq = F(q, dq) + B(q) tau
+accelerations, see ``trajectory``), the equations M(q) ddq = F(t, q, dq) + B(q) tau
 give, with B square and non-singular,
 
-    tau(t) = B^-1 (M ddq - F)        at (q(t), dq(t), ddq(t))
+    tau(t) = B^-1 (M ddq - F)        at (t, q(t), dq(t), ddq(t))
+
+F holds the joint forces and loads, so the efforts overcome friction,
+damping, springs and loads.
 
 evaluated over the whole time grid at once (``CompiledRobot.mfb`` on arrays,
 one batched solve; no Python loop per point).
@@ -23,16 +26,18 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..output import files as output
-from ..numeric.model import CompiledRobot
-from ..errors import CheckFailed, ModelError, NumericalError, positive
+from ..errors import CheckFailed, ModelError, NumericalError, SettingError, positive
 from ..model.info import RobotInfo
+from ..numeric import constrained, integrators
+from ..numeric.integrators import Problem
+from ..numeric.model import NumericModel
+from ..numeric.settings import trajectory_grid
+from .. import files as output
 
 DEFAULT_STEP = 0.01          # s, output grid (else the file's simulation.output_step)
 DEFAULT_TOLERANCE = 1e-6     # rad or m, largest round-trip tracking error
@@ -51,20 +56,21 @@ class InverseDynamics:
     robot's compiled ``mfb``; both take arrays of any shape or scalars.
     """
 
-    def __init__(self, compiled: CompiledRobot, motion):
-        self.compiled = compiled
+    def __init__(self, model: NumericModel, motion):
+        self.model = model
         self.motion = motion
-        self.n = compiled.n
-        self.m = len(compiled.effort_names)
+        self.n = model.n
+        self.m = len(model.effort_names)
 
-    def matrices(self, q, dq):
-        """M (..., n, n), F (..., n), B (..., n, m) at states with the coordinates last."""
-        return self.compiled.mfb(np.moveaxis(q, -1, 0), np.moveaxis(dq, -1, 0))
+    def matrices(self, t, q, dq):
+        """M (..., n, n), F (..., n), B (..., n, m) at times ``t`` (shape ...) and
+        states with the coordinates last."""
+        return self.model.mfb(t, np.moveaxis(q, -1, 0), np.moveaxis(dq, -1, 0))
 
     def efforts(self, t):
         """(q, dq, ddq, tau) over the time array ``t``; tau has shape t.shape + (m,)."""
         q, dq, ddq = self.motion(t)
-        M, F, B = self.matrices(q, dq)
+        M, F, B = self.matrices(t, q, dq)
         return q, dq, ddq, self.solve(M, F, B, ddq)
 
     @staticmethod
@@ -78,7 +84,7 @@ class InverseDynamics:
     def effort_at(self, t: float) -> np.ndarray:
         """tau at one time (the round trip's exact forcing)."""
         q, dq, ddq = self.motion(t)
-        M, F, B = self.matrices(q, dq)
+        M, F, B = self.matrices(t, q, dq)
         return np.linalg.solve(B, M @ ddq - F)
 
 
@@ -123,44 +129,57 @@ class InverseResult:
     dynamics: InverseDynamics
     roundtrip: RoundTrip | None = None
     timings: dict = field(default_factory=dict)
+    constraints: "constrained.ConstraintRun | None" = None   # multipliers (closed chains)
+    note: str = ""                # how redundant actuation was resolved
+
+    def to_csv(self, path) -> Path:
+        """Write inverse.csv's columns to ``path`` (whole or not at all)."""
+        output.write_csv(Path(path), *columns(self))
+        return Path(path)
+
+    def figure(self, rates: bool = False):
+        """Prescribed motion and efforts as a Matplotlib Figure (the global
+        backend is not touched)."""
+        from ..output.plots import time_figure
+
+        return time_figure(self.t, _panels(self, rates), plot_title(self))
 
 
-def inverse(robot, formulation: str = "kane", step: float | None = None,
-            roundtrip: bool = True, tolerance: float = DEFAULT_TOLERANCE,
-            segment: float | None = None,
-            compiled: CompiledRobot | None = None, timings: dict | None = None,
-            use_cache: bool = True) -> InverseResult:
-    """Efforts along ``robot``'s trajectory (a validated ``Robot``), and the round trip."""
-    from ..numeric import trajectory
-    from ..numeric.build import compile_robot
+def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = True,
+            tolerance: float = DEFAULT_TOLERANCE, segment: float | None = None,
+            timings: dict | None = None) -> InverseResult:
+    """Efforts along the file's trajectory (``model.motion``), and the round trip.
 
+    ``step``: output step, s (default: the file's output step, else 0.01);
+    ``tolerance``: largest round-trip tracking error, rad or m; ``segment``:
+    length of the round trip's pieces, s (default: automatic, see round_trip).
+    """
     timings = {} if timings is None else timings
-    if robot.trajectory is None:
-        raise trajectory.missing(robot)
-    step = positive("--dt", step if step is not None
-                     else robot.simulation.output_step or DEFAULT_STEP)
-    tolerance = positive("--roundtrip-tol", tolerance)
+    info = model.info
+    step = positive("output_step", step if step is not None
+                    else info.simulation.output_step or DEFAULT_STEP)
+    tolerance = positive("roundtrip_tolerance", tolerance)
     if segment is not None:
-        positive("--roundtrip-segment", segment)
-    if compiled is None:
-        compiled = compile_robot(robot, formulation, timings, use_cache)
-    info = RobotInfo.from_robot(robot)
-    _check_counts(info)
+        positive("roundtrip_segment", segment)
     start = time.perf_counter()
-    motion = trajectory.motion(robot)
+    motion = model.motion
+    if not constrained.is_constrained(model):
+        _check_counts(info)
     timings["trajectory"] = time.perf_counter() - start
     if step > motion.duration:
-        raise ModelError(f"--dt {step:g} s is longer than the trajectory's duration "
-                         f"{motion.duration:g} s")
-    dynamics = InverseDynamics(compiled, motion)
+        raise SettingError("output_step", f"{step:g} s is longer than the trajectory's "
+                                          f"duration {motion.duration:g} s")
+    dynamics = InverseDynamics(model, motion)
     if motion.duration / step > MAX_POINTS:
-        raise ModelError(f"--dt {step:g} s gives more than {MAX_POINTS:.0e} points over "
-                         f"{motion.duration:g} s")
-    t = trajectory.grid(motion.duration, step)
+        raise SettingError("output_step", f"{step:g} s gives more than {MAX_POINTS:.0e} "
+                                          f"points over {motion.duration:g} s")
+    t = trajectory_grid(motion.duration, step)
+    if constrained.is_constrained(model):         # closed chains (numeric.constrained)
+        return _closed_chain(model, motion, t, step, roundtrip, tolerance, segment, timings)
     start = time.perf_counter()
     with np.errstate(all="ignore"):
         q, dq, ddq = motion(t)
-        M, F, B = dynamics.matrices(q, dq)
+        M, F, B = dynamics.matrices(t, q, dq)
     elapsed = time.perf_counter() - start
     for name, values in (("q", q), ("dq", dq), ("ddq", ddq)):
         bad = ~np.isfinite(values)
@@ -176,7 +195,7 @@ def inverse(robot, formulation: str = "kane", step: float | None = None,
         tau = dynamics.solve(M, F, B, ddq)
     timings["efforts"] = elapsed + time.perf_counter() - start
     _finite(info, t, tau, "the efforts")
-    result = InverseResult(info, formulation, motion.kind, motion.duration, step, t,
+    result = InverseResult(info, model.formulation, motion.kind, motion.duration, step, t,
                            q, dq, ddq, tau, dynamics, timings=timings)
     if roundtrip:
         result.roundtrip = round_trip(result, tolerance, segment)
@@ -203,7 +222,7 @@ def growth_rates(dynamics: InverseDynamics, times: np.ndarray) -> np.ndarray:
             shifted = [x.copy(), x.copy()]
             shifted[0][k] += h
             shifted[1][k] -= h
-            (Ma, Fa, Ba), (Mb, Fb, Bb) = (mfb(y[:n], y[n:]) for y in shifted)
+            (Ma, Fa, Ba), (Mb, Fb, Bb) = (mfb(moment, y[:n], y[n:]) for y in shifted)
             J[n:, k] = (np.linalg.solve(Ma, Fa + Ba @ tau)
                         - np.linalg.solve(Mb, Fb + Bb @ tau)) / (2 * h)
         rates[i] = np.linalg.eigvals(J).real.max()
@@ -232,8 +251,6 @@ def round_trip(result: InverseResult, tolerance: float = DEFAULT_TOLERANCE,
     trajectory's start); a stable motion is one segment from the start state.
     ``segment`` (s) overrides the automatic length.
     """
-    from scipy.integrate import odeint
-
     dynamics, n, t = result.dynamics, result.dynamics.n, result.t
     mfb, effort_at = dynamics.matrices, dynamics.effort_at
     start = time.perf_counter()
@@ -245,57 +262,45 @@ def round_trip(result: InverseResult, tolerance: float = DEFAULT_TOLERANCE,
                              f"be evaluated at t = {samples[~np.isfinite(rates)][0]:g} s "
                              "(singular mass matrix?)")
     rate, rate_time = float(rates.max()), float(samples[rates.argmax()])
-    positive = np.maximum(rates, 0.0)
-    growth = float(np.sum((positive[1:] + positive[:-1]) / 2 * np.diff(samples)))
+    growing = np.maximum(rates, 0.0)
+    growth = float(np.sum((growing[1:] + growing[:-1]) / 2 * np.diff(samples)))
     if segment is None:
         count = max(1, math.ceil(rate * (t[-1] - t[0]) / math.log(AMPLIFICATION) - 1e-9))
     else:
-        count = max(1, math.ceil((t[-1] - t[0]) / positive("--roundtrip-segment", segment)
+        count = max(1, math.ceil((t[-1] - t[0]) / positive("roundtrip_segment", segment)
                                  - 1e-9))
     rows = segment_rows(t, count)
-    calls = [0]
-    failure: list = []
 
-    def rhs(x, moment):
-        calls[0] += 1
-        out = np.empty(2 * n)
-        out[:n] = x[n:]
-        try:
-            M, F, B = mfb(x[:n], x[n:])
-            out[n:] = np.linalg.solve(M, F + B @ effort_at(moment))
-        except np.linalg.LinAlgError:
-            out[:] = np.nan
-        if not np.isfinite(out).all() and not failure:
-            failure.append(moment)
-        return out
+    def rhs(moment, x):
+        """x' = [dq, M^-1 (F + B tau(t))], tau the computed efforts at this t."""
+        M, F, B = mfb(moment, x[:n], x[n:])
+        return np.concatenate([x[n:], np.linalg.solve(M, F + B @ effort_at(moment))])
 
+    problem = Problem(rhs, names=result.dynamics.model.state_names())
     error = np.zeros_like(result.q)
-    steps = 0
+    steps = calls = 0
     for first, last in zip(rows[:-1], rows[1:]):
         x0 = np.concatenate([result.q[first], result.dq[first]])
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore")
-            x, info = odeint(rhs, x0, t[first:last + 1], rtol=rtol, atol=atol,
-                             full_output=True, mxstep=10**6, tcrit=[t[last]])
-        if not (info["message"].startswith("Integration successful") and np.isfinite(x).all()):
-            where = (f"at t = {failure[0]:.6g} s" if failure
-                     else f"after t = {float(np.max(info['tcur'], initial=t[first])):.6g} s")
+        solution = integrators.integrate(problem, x0, t[first:last + 1], "odeint", rtol, atol,
+                                         stop_at_end=True)
+        calls, steps = calls + solution.rhs_calls, steps + solution.steps
+        if not solution.success:
             raise NumericalError(f"{result.robot.source}: round trip: the direct dynamics "
-                                 f"failed {where} ({info['message'].strip()})")
+                                 f"failed: {solution.message}")
+        x = solution.x
         error[first:last + 1] = np.maximum(error[first:last + 1],
                                            np.abs(x[:, :n] - result.q[first:last + 1]))
-        steps += int(info["nst"][-1]) if len(info["nst"]) else 0
     wall = time.perf_counter() - start
     row, column = np.unravel_index(int(np.argmax(error)), error.shape)
     names = [c.name for c in result.robot.coordinates]
     return RoundTrip("odeint (LSODA)", rtol, atol, tolerance, float(error[row, column]),
                      names[column], float(t[row]),
                      {name: float(e) for name, e in zip(names, error.max(axis=0))},
-                     float(error[-1].max()), calls[0], steps, wall, len(rows) - 1,
+                     float(error[-1].max()), calls, steps, wall, len(rows) - 1,
                      float((t[-1] - t[0]) / (len(rows) - 1)), rate, rate_time, growth)
 
 
-def check(result: InverseResult) -> None:
+def raise_if_failed(result: InverseResult) -> None:
     """CheckFailed when the round trip missed its tolerance."""
     trip = result.roundtrip
     if trip is None or trip.passed:
@@ -304,6 +309,47 @@ def check(result: InverseResult) -> None:
     raise CheckFailed(f"{result.robot.source}: round trip: largest tracking error "
                       f"{trip.max_error:.3g} {unit} ({trip.coordinate} at t = {trip.time:g} s) "
                       f"exceeds the tolerance {trip.tolerance:g} (--roundtrip-tol)")
+
+
+def _closed_chain(model, motion, t, step, roundtrip, tolerance, segment, timings):
+    """Efforts for a closed chain: the independent coordinates follow the trajectory,
+    the dependent ones the constraints (``constrained.ClosedChainInverse``)."""
+    info = model.info
+    chain = constrained.ClosedChainInverse(model, motion, None)
+    start = time.perf_counter()
+    with np.errstate(all="ignore"):
+        q, dq, ddq = chain.kinematics(t)
+    chain.grid, chain.q = t, q
+    chain.check_velocity(t, q, dq, info.source)
+    rank, k, P = chain.actuation(float(t[0]), q[0], dq[0])
+    m = chain.m
+    counts = (f"{k} degree{'s' * (k != 1)} of freedom ({model.n} coordinates, {model.c} "
+              f"constraint equation{'s' * (model.c != 1)}), {m} actuator{'s' * (m != 1)}")
+    if rank < k:
+        names = [c.name for c in info.coordinates]
+        N = np.linalg.svd(np.asarray(model._pfaffian(float(t[0]), *q[0].tolist())[0]))[2]
+        lost = _null_space(P.T) if P.size else np.eye(k)
+        motions = N[model.c:].T @ lost
+        raise ModelError(f"{counts}: inverse dynamics needs actuators that drive every motion "
+                         f"the constraints allow; not actuated: "
+                         f"{_describe(motions, ['d' + n for n in names])}",
+                         source=info.source, path="actuators")
+    note = ("" if m == k else f"redundant actuation ({counts}): of the efforts that produce "
+            "the motion, the one of least Euclidean norm")
+    with np.errstate(all="ignore"):
+        tau, lam = chain.along(t, q, dq, ddq)
+    timings["efforts"] = time.perf_counter() - start
+    _finite(info, t, tau, "the efforts")
+    result = InverseResult(info, model.formulation, motion.kind, motion.duration, step, t,
+                           q, dq, ddq, tau, chain, timings=timings, note=note)
+    drift = np.array([np.abs(model.residuals(float(moment), np.concatenate([a, b]))[0]).max(
+        initial=0.0) for moment, a, b in zip(t, q, dq)])
+    result.constraints = constrained.ConstraintRun(model.rows, model.h, t, drift,
+                                                   np.zeros(len(t)), lam, 0.0)
+    if roundtrip:
+        result.roundtrip = RoundTrip(**chain.round_trip(t, q, dq, segment, tolerance))
+        timings["roundtrip"] = result.roundtrip.wall
+    return result
 
 
 # -- checks ------------------------------------------------------------------------
@@ -404,20 +450,23 @@ def columns(result: InverseResult) -> tuple[list[str], list[np.ndarray]]:
     names = [c.name for c in result.robot.coordinates]
     header = ["t", *names, *("d" + n for n in names), *("dd" + n for n in names),
               *(a.name for a in result.robot.actuators)]
-    return header, [result.t, *result.q.T, *result.dq.T, *result.ddq.T, *result.efforts.T]
+    data = [result.t, *result.q.T, *result.dq.T, *result.ddq.T, *result.efforts.T]
+    if result.constraints is not None:           # after the contract: the multipliers
+        header += [r.column for r in result.constraints.rows]
+        data += list(result.constraints.multipliers.T)
+    return header, data
 
 
 def table_times(duration: float) -> np.ndarray:
-    """t = 0, 1, ..., T s like the chapter's figures (coarser steps for long motions)."""
-    every = max(1, math.ceil(duration / 30))
-    times = np.arange(0, math.floor(duration + 1e-9) + 1, every, dtype=float)
-    if duration - times[-1] > 1e-9:
-        times = np.append(times, duration)
-    return times
+    """Round times over the motion, about 15 rows whatever its duration (t = 0, 1,
+    ..., 15 s for the chapter's 15 s), and T itself."""
+    from ..output.tables import table_times as round_times
+
+    return np.array(round_times(duration))
 
 
 def table(result: InverseResult) -> str:
-    """Efforts at t = 0, 1, ..., T s (computed at those exact times)."""
+    """Efforts at round times (computed at those exact times)."""
     times = table_times(result.duration)
     tau = result.dynamics.efforts(times)[3]
     heads = ["t (s)"] + [f"{a.name} ({unit_label(a.unit)})" for a in result.robot.actuators]
@@ -426,6 +475,37 @@ def table(result: InverseResult) -> str:
     for k, moment in enumerate(times):
         lines.append("  ".join([f"{moment:>{width}g}"]
                                + [f"{round(v, 6) + 0.0:>{width}.6f}" for v in tau[k]]))
+    return "\n".join(lines)
+
+
+def effort_limit(actuator) -> float | None:
+    """The largest |effort| the actuator's joint allows, where the robot says."""
+    for name in ("effort_limit", "limit", "max_effort"):
+        value = getattr(actuator, name, None)
+        if isinstance(value, (int, float)) and value > 0:
+            return float(value)
+        value = getattr(value, "effort", None)
+        if isinstance(value, (int, float)) and value > 0:
+            return float(value)
+    return None
+
+
+def peaks(result: InverseResult) -> str:
+    """One line per actuator: its peak |effort| over the motion (on the output grid),
+    when, and the share of its limit where the robot gives one."""
+    lines = []
+    for k, a in enumerate(result.robot.actuators):
+        values = result.efforts[:, k]
+        j = int(np.argmax(np.abs(values)))
+        unit = unit_label(a.unit)
+        line = (f"peak {a.name}: {values[j] + 0.0:+.6g} {unit} at t = "
+                f"{round(float(result.t[j]), 9) + 0.0:g} s")
+        limit = effort_limit(a)
+        if limit is not None:
+            share = abs(values[j]) / limit
+            line += (f" (limit {limit:g} {unit}: {100 * share:.0f}%"
+                     f"{', EXCEEDED' if share > 1 else ''})")
+        lines.append(line)
     return "\n".join(lines)
 
 
@@ -451,22 +531,36 @@ def roundtrip_line(result: InverseResult) -> str:
             f"{trip.steps} steps, {trip.wall:.3f} s]")
 
 
-def write(result: InverseResult, out: Path, plot: bool = True) -> list[Path]:
-    """inverse.csv, inverse.png and inverse.json in ``out``."""
+def write(result: InverseResult, out: Path, plot: bool = True, plot_format: str = "png",
+          rates: bool = False) -> list[Path]:
+    """inverse.csv, inverse.png (or .svg, .pdf; the rates and accelerations too if
+    asked) and inverse.json in ``out``."""
+    from ..output.plots import plot_path, write_plot
+
     out = output.prepare_dir(out)
     start = time.perf_counter()
     header, data = columns(result)
     written = [out / "inverse.csv"]
     output.write_csv(written[0], header, data)
     if plot:
-        written.append(out / "inverse.png")
-        output.write_plot(written[-1], result.t, _panels(result),
-                          f"{result.robot.name}: inverse dynamics, {result.kind} motion "
-                          f"({result.formulation})")
+        written.append(plot_path(out, "inverse", plot_format))
+        write_plot(written[-1], result.t, _panels(result, rates), plot_title(result))
     result.timings["write"] = time.perf_counter() - start
     written.append(out / "inverse.json")
     output.write_json(written[-1], summary(result))
     return written
+
+
+def plot_title(result: InverseResult) -> str:
+    """Robot, motion, formulation and the round trip's method, error and tolerance."""
+    title = (f"{result.robot.name}: inverse dynamics, {result.kind} motion over "
+             f"{result.duration:g} s, {result.formulation}")
+    trip = result.roundtrip
+    if trip is not None:
+        unit = next((c.unit for c in result.robot.coordinates if c.name == trip.coordinate), "")
+        title += (f"\nround trip {trip.method} rtol {trip.rtol:g}: error {trip.max_error:.2g} "
+                  f"{unit} (tolerance {trip.tolerance:g}, {'ok' if trip.passed else 'FAILED'})")
+    return title
 
 
 def summary(result: InverseResult) -> dict:
@@ -493,16 +587,26 @@ def summary(result: InverseResult) -> dict:
             "points_per_second": (len(result.t) / result.timings["efforts"]
                                   if result.timings.get("efforts") else None),
             "efforts": efforts, "roundtrip": roundtrip,
-            "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)}}
+            "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)},
+            **({} if result.constraints is None else
+               {"actuation": result.note or "unique",
+                "multipliers": result.constraints.summary()["constraints"]["multipliers"]})}
 
 
-def _panels(result: InverseResult):
+def _panels(result: InverseResult, rates: bool = False):
+    """The prescribed motion (one axis per unit: degrees apart from metres; rates and
+    accelerations too if asked), then one panel per effort, as in the chapter."""
     panels = []
-    for unit, label in (("rad", "deg"), ("m", "m")):
-        series = [(c.name, np.degrees(result.q[:, i]) if unit == "rad" else result.q[:, i])
-                  for i, c in enumerate(result.robot.coordinates) if c.unit == unit]
-        if series:
-            panels.append((f"prescribed q ({label})", series))
+    quantities = [("", result.q, "")]
+    if rates:
+        quantities += [("d", result.dq, "/s"), ("dd", result.ddq, "/s²")]
+    for prefix, values, per in quantities:
+        for unit, label in (("rad", "deg"), ("m", "m")):
+            series = [(prefix + c.name, np.degrees(values[:, i]) if unit == "rad"
+                       else values[:, i])
+                      for i, c in enumerate(result.robot.coordinates) if c.unit == unit]
+            for start in range(0, len(series), 6):      # at most 6 lines an axis
+                panels.append((f"prescribed {prefix}q ({label}{per})", series[start:start + 6]))
     for k, a in enumerate(result.robot.actuators):        # one panel per effort, as in
         panels.append((f"{a.name} ({unit_label(a.unit)})",  # the chapter's figures
                        [(a.name, result.efforts[:, k])]))

@@ -7,36 +7,32 @@ t = k * output_step exactly.
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from ..numeric import integrators
-from ..output import files as output
-from ..output import plots
-from ..numeric.build import compile_robot
-from ..numeric.model import CompiledRobot
-from ..errors import ModelError, NumericalError, positive
+from ..errors import NumericalError
 from ..model.info import RobotInfo, Simulation
-
-DEFAULTS = Simulation(t_end=10.0, output_step=0.01, method="auto", rtol=1e-10, atol=1e-12)
-#: settings -> the command-line options that set them
-OPTIONS = {"t_end": "--t-end", "output_step": "--dt", "rtol": "--rtol", "atol": "--atol"}
-MAX_ROWS = 1_000_000     # output rows; the robot file is held to the same (model.loader)
+from ..numeric import constrained, integrators
+from ..numeric.model import NumericModel
+from ..numeric.settings import output_grid, resolve
+from .. import files as output
+from ..output import plots, tables
 
 
 @dataclass
 class SimulationResult:
+    """A run; rows are times: ``t`` (N,), ``x`` (N, 2n) = [q, dq], ``efforts`` (N, m)."""
     robot: RobotInfo
     settings: Simulation
     solution: integrators.Solution
-    efforts: np.ndarray                   # m x rows
+    efforts: np.ndarray                   # N x m
     timings: dict = field(default_factory=dict)
-    estimated_error: float | None = None  # accuracy.estimate_error, when asked for
+    estimated_error: float | None = None  # integrators.estimate_error, when asked for
     formulation: str = ""                 # kane or lagrange (named in the plot's title)
+    constraints: "constrained.ConstraintRun | None" = None   # drift, multipliers (closed chains)
 
     @property
     def t(self) -> np.ndarray:
@@ -46,68 +42,59 @@ class SimulationResult:
     def x(self) -> np.ndarray:
         return self.solution.x
 
+    def to_csv(self, path) -> Path:
+        """Write simulate.csv's columns to ``path`` (whole or not at all)."""
+        output.write_csv(Path(path), *columns(self))
+        return Path(path)
 
-def resolve(robot: RobotInfo, **overrides) -> Simulation:
-    """Settings: command line, then the robot file, then anadyn's defaults."""
-    chosen = {k: v for k, v in overrides.items() if v is not None}
-    for key, option in OPTIONS.items():     # the file's values are checked by the loader
-        if key in chosen:
-            positive(option, chosen[key])
-    settings = replace(DEFAULTS, **{k: v for k, v in robot.simulation.__dict__.items()
-                                    if v is not None})
-    settings = replace(settings, **chosen)
-    if settings.method not in integrators.METHODS:
-        raise ModelError(f"unknown method {settings.method!r}; choose one of "
-                         f"{', '.join(integrators.METHODS)}")
-    if settings.output_step > settings.t_end:
-        raise ModelError(f"output step {settings.output_step:g} s is longer than "
-                         f"t_end {settings.t_end:g} s")
-    if settings.t_end / settings.output_step > MAX_ROWS:
-        raise ModelError(f"t_end / output step = {settings.t_end / settings.output_step:.3g} "
-                         f"rows; at most {MAX_ROWS:,} (raise --dt or shorten --t-end)")
-    return settings
+    def figure(self, rates: bool = False):
+        """The run as a Matplotlib Figure (the global backend is not touched)."""
+        return plots.time_figure(self.t, _panels(self, rates), plot_title(self), pairs=rates)
 
 
-def output_grid(t_end: float, step: float) -> np.ndarray:
-    """t = k * step for k = 0, 1, ... up to t_end (inclusive when it is a multiple)."""
-    count = int(math.floor(t_end / step * (1 + 1e-12))) + 1
-    return np.arange(count) * step
+def simulate(model: NumericModel, method: str | None = None, rtol: float | None = None,
+             atol: float | None = None, t_end: float | None = None,
+             output_step: float | None = None, estimate_error: bool = False,
+             timings: dict | None = None) -> SimulationResult:
+    """Integrate ``model``'s direct dynamics from the file's initial state.
 
-
-def initial_state(robot: RobotInfo) -> np.ndarray:
-    return np.array([float(c.initial) for c in robot.coordinates]
-                    + [float(c.rate) for c in robot.coordinates])
-
-
-def simulate(robot, formulation: str = "kane", compiled: CompiledRobot | None = None,
-             timings: dict | None = None, **overrides) -> SimulationResult:
-    """Integrate ``robot`` (a Robot, or a RobotInfo with ``compiled``).
-
-    A failure is returned in ``result.solution``, not raised.
+    Settings not given come from the robot file, then anadyn's defaults
+    (``numeric.settings``).  A failure is returned in ``result.solution``,
+    not raised; ``estimate_error`` adds the run's estimated global error.
     """
     timings = {} if timings is None else timings
-    if compiled is None:
-        compiled = compile_robot(robot, formulation, timings)
-    if not isinstance(robot, RobotInfo):
-        robot = RobotInfo.from_robot(robot)
-    settings = resolve(robot, **overrides)
+    settings = resolve(model.info, method=method, rtol=rtol, atol=atol, t_end=t_end,
+                       output_step=output_step)
     grid = output_grid(settings.t_end, settings.output_step)
-    solution = integrators.integrate(compiled, initial_state(robot), grid, settings.method,
+    problem = model.problem()
+    solution = integrators.integrate(problem, model.initial_state(), grid, settings.method,
                                      settings.rtol, settings.atol)
     timings["solve"] = solution.wall
-    n = compiled.n
+    n, m = model.n, len(model.info.actuators)
     q, dq = solution.x[:, :n].T, solution.x[:, n:].T
-    efforts = compiled.efforts(solution.t, q, dq) if robot.actuators else np.zeros((0, len(q[0])))
-    efforts = np.broadcast_to(efforts, (len(robot.actuators), len(solution.t)))
-    return SimulationResult(robot, settings, solution, np.asarray(efforts), timings,
-                            formulation=formulation)
+    efforts = model.efforts(solution.t, q, dq) if m else np.zeros((0, len(solution.t)))
+    efforts = np.broadcast_to(efforts, (m, len(solution.t))).T
+    result = SimulationResult(model.info, settings, solution, np.array(efforts), timings,
+                              formulation=model.formulation)
+    if constrained.is_constrained(model):       # drift and constraint forces on every row
+        result.constraints = model.run_report(solution.t, solution.x)
+    if estimate_error and solution.success:
+        start = time.perf_counter()
+        result.estimated_error = integrators.estimate_error(problem, solution, settings.rtol,
+                                                            settings.atol)
+        timings["estimate"] = time.perf_counter() - start
+    return result
 
 
 def columns(result: SimulationResult) -> tuple[list[str], list[np.ndarray]]:
     """CSV contract: t, coordinates, rates d<name>, actuator efforts."""
     names = [c.name for c in result.robot.coordinates]
     header = ["t", *names, *("d" + n for n in names), *(a.name for a in result.robot.actuators)]
-    return header, [result.t, *result.x.T, *result.efforts]
+    data = [result.t, *result.x.T, *result.efforts.T]
+    if result.constraints is not None:        # after the contract: multipliers, drift
+        extra_header, extra = result.constraints.columns()
+        header, data = header + extra_header, data + extra
+    return header, data
 
 
 def write(result: SimulationResult, out: Path, plot: bool = True, plot_format: str = "png",
@@ -126,7 +113,8 @@ def write(result: SimulationResult, out: Path, plot: bool = True, plot_format: s
     output.write_csv(written[0], header, data)
     if plot:
         written.append(plots.plot_path(out, "simulate", plot_format))
-        plots.write_plot(written[-1], result.t, _panels(result, rates), plot_title(result))
+        plots.write_plot(written[-1], result.t, _panels(result, rates), plot_title(result),
+                         pairs=rates)
     (out / "simulate.partial.csv").unlink(missing_ok=True)
     result.timings["write"] = time.perf_counter() - start
     written.append(out / "simulate.json")
@@ -139,7 +127,7 @@ def summary(result: SimulationResult) -> dict:
     solution = result.solution
     final = dict(zip(columns(result)[0][1:], (float(v) for v in
                                               np.concatenate([solution.x[-1],
-                                                              result.efforts[:, -1]]))))
+                                                              result.efforts[-1]]))))
     return {"robot": result.robot.name, "method": solution.method, "reason": solution.reason,
             "success": solution.success, "rhs_calls": solution.rhs_calls,
             "jacobian_calls": solution.jacobian_calls, "steps": solution.steps,
@@ -147,7 +135,8 @@ def summary(result: SimulationResult) -> dict:
             "t_end": float(result.t[-1]), "rows": len(result.t), "final": final,
             "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)},
             **({} if result.estimated_error is None
-               else {"estimated_error": result.estimated_error})}
+               else {"estimated_error": result.estimated_error}),
+            **({} if result.constraints is None else result.constraints.summary())}
 
 
 def plot_title(result: SimulationResult) -> str:
@@ -166,21 +155,32 @@ def _panels(result: SimulationResult, rates: bool = False) -> list:
     panels = plots.state_panels(coordinates, result.x[:, :n], result.x[:, n:] if rates else None)
     if result.robot.actuators:
         panels += plots.effort_panels([(a.name, a.unit) for a in result.robot.actuators],
-                                      result.efforts.T)
+                                      result.efforts)
+    if result.constraints is not None:
+        panels += plots.effort_panels([(r.column, r.unit or "1") for r in
+                                       result.constraints.rows], result.constraints.multipliers)
     return panels
 
 
-def table(result: SimulationResult, times=range(6)) -> str:
-    """The state at t = 0, 1, ..., 5 s (rows of the output grid), like the chapter."""
-    names = [c.name for c in result.robot.coordinates]
-    header = ["t(s)"] + [h for n in names for h in (n, "d" + n)]
-    n = len(names)
-    lines = ["  ".join(f"{h:>12}" for h in header)]
-    for moment in times:
-        k = int(round(moment / result.settings.output_step))
-        if k >= len(result.t) or abs(result.t[k] - moment) > 1e-9:
-            continue
+def table(result: SimulationResult, max_coordinates: int = 4) -> str:
+    """The state at round times over the whole run (about 15 rows whatever the
+    horizon, and the last row), units in the headers; rates only up to
+    ``max_coordinates`` coordinates (all of them are in simulate.csv)."""
+    coordinates = result.robot.coordinates
+    n = len(coordinates)
+    rates = n <= max_coordinates
+    headers = ["t (s)"]
+    for c in coordinates:
+        headers.append(f"{c.name} ({c.unit})")
+        if rates:
+            headers.append(f"d{c.name} ({c.unit}/s)")
+    rows = []
+    for k in tables.grid_rows(len(result.t), result.settings.output_step):
         x = result.x[k]
-        values = [result.t[k]] + [v for i in range(n) for v in (x[i], x[n + i])]
-        lines.append("  ".join(f"{v:12.6f}" for v in values))
-    return "\n".join(lines)
+        row = [tables.time_text(result.t[k])]
+        for i in range(n):
+            row.append(tables.number(x[i]))
+            if rates:
+                row.append(tables.number(x[n + i]))
+        rows.append(row)
+    return tables.render(headers, rows)

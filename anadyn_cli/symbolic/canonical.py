@@ -8,12 +8,19 @@ expressions that are equal by the Pythagorean and angle-sum identities get
 the same form, and one that is identically zero becomes 0.  Expansion can
 grow exponentially, so ``expanded_terms`` bounds it first and larger
 expressions are returned unchanged.
+
+Two kinds of function are kept whole (their arguments put in canonical form
+themselves): tanh, the smoothed friction, whose expansion of a sum or a
+multiple angle (tanh(100 dq)) explodes; and anything of the time t, the
+loads the user wrote, e.g. sin(10 t).  Both come from the same expressions
+in either formulation, so they need no identities to cancel.
 """
 from __future__ import annotations
 
 import sympy as sp
 
 TERM_BUDGET = 1000      # for a whole system of equations
+TIME = sp.Symbol("t", real=True)
 
 
 def expanded_terms(expr: sp.Expr, limit: int = TERM_BUDGET,
@@ -59,7 +66,22 @@ def canonical(expr: sp.Expr) -> sp.Expr:
     """The canonical form of ``expr`` (check its size with ``fits`` first)."""
     if expr.is_Number:
         return expr
-    return sp.expand(_reduce_sine_squares(sp.expand(sp.expand_trig(expr))))
+    hidden: dict[sp.Expr, sp.Dummy] = {}
+    if expr.has(sp.tanh) or TIME in expr.free_symbols:
+        expr = _hide(expr, hidden)
+    result = sp.expand(_reduce_sine_squares(sp.expand(sp.expand_trig(expr))))
+    return result.xreplace({d: e for e, d in hidden.items()}) if hidden else result
+
+
+def _hide(expr: sp.Expr, hidden: dict) -> sp.Expr:
+    """``expr`` with tanh(...) and functions of t replaced by placeholders (``hidden``)."""
+    if expr.is_Atom:
+        return expr
+    if isinstance(expr, sp.Function) and (isinstance(expr, sp.tanh)
+                                          or TIME in expr.free_symbols):
+        whole = expr.func(*[canonical(a) for a in expr.args])
+        return hidden.setdefault(whole, sp.Dummy())
+    return expr.func(*[_hide(a, hidden) for a in expr.args])
 
 
 def fits(exprs, budget: int = TERM_BUDGET) -> bool:

@@ -20,7 +20,7 @@ TIME = sp.Symbol("t", real=True)
 
 @dataclass(frozen=True)
 class EquationsOfMotion:
-    method: str                          # "kane" or "lagrange"
+    formulation: str                     # "kane" or "lagrange"
     q: tuple[sp.Symbol, ...]
     dq: tuple[sp.Symbol, ...]
     ddq: tuple[sp.Symbol, ...]
@@ -44,7 +44,8 @@ class EquationsOfMotion:
     @property
     def residuals(self) -> list[sp.Expr]:
         """Left-hand sides of ``M ddq - F - B tau = 0``, one per coordinate."""
-        lhs = self.M * sp.Matrix(self.ddq) - self.F - self.B * sp.Matrix(self.efforts)
+        tau = sp.Matrix(len(self.efforts), 1, list(self.efforts))   # n x 1 even when m = 0
+        lhs = self.M * sp.Matrix(self.ddq) - self.F - self.B * tau
         return list(lhs)
 
     @property

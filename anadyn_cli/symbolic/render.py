@@ -2,6 +2,10 @@
 
     residual_r = sum_s M_rs ddq_s - F_r - sum_k B_rk tau_k = 0
 
+The generalized forces of the joint forces and loads, Q (part of F), are
+shown apart: each equation ends in ``- Q_<coordinate>`` and the entries of Q
+follow under their own heading (with ``--matrices``: F[r] = ... + Q[r]).
+
 Small systems are shown with their trigonometric terms recombined
 (``sympy.trigsimp``) and collected by accelerations and efforts; larger
 ones are printed as derived.  Numeric systems print decimals, symbolic
@@ -25,7 +29,7 @@ def render(eom: EquationsOfMotion, fmt: str = "text", form: str = "residual") ->
     if form not in FORMS:
         raise ModelError(f"unknown form {form!r}; choose one of {', '.join(FORMS)}")
     readable = fits([*eom.M, *eom.F, *eom.B])
-    show = _printer(fmt, eom.symbolic)
+    show = _printer(fmt, eom.symbolic, eom.q)
 
     def tidy(expr: sp.Expr, collect: bool = False) -> sp.Expr:
         if readable:
@@ -34,28 +38,111 @@ def render(eom: EquationsOfMotion, fmt: str = "text", form: str = "residual") ->
                 expr = sp.collect(expr, [*eom.ddq, *eom.efforts])
         return expr
 
-    lines = [f"# {eom.method} equations, "
+    lines = [f"# {eom.formulation} equations, "
              f"{'symbolic parameters' if eom.symbolic else 'numeric parameters'}"]
+    Q = eom.joint_forces_and_loads
+    forces = sp.Matrix(eom.F - Q)       # gravity and velocity products
+    heading = "# joint forces and loads: generalized forces Q, part of F"
     if form == "residual":
-        for q, residual in zip(eom.q, eom.residuals):
-            lines.append(f"{q}: {show(tidy(residual, collect=True))} = 0")
+        names = [sp.Symbol(f"Q_{q}") for q in eom.q]
+        tau = sp.Matrix(len(eom.efforts), 1, list(eom.efforts))
+        residuals = eom.M * sp.Matrix(eom.ddq) - forces - eom.B * tau
+        for q, residual, name, entry in zip(eom.q, residuals, names, Q):
+            text = show(tidy(residual, collect=True))
+            if entry != 0:
+                text = f"{text} - {show(name)}" if text != "0" else f"-{show(name)}"
+            lines.append(f"{q}: {text} = 0")
+        if any(entry != 0 for entry in Q):
+            lines.append(heading)
+            lines += [f"{show(name)} = {show(tidy(entry))}" for name, entry in zip(names, Q)
+                      if entry != 0]
         return "\n".join(lines)
-    for name, matrix in (("M", eom.M), ("F", eom.F), ("B", eom.B)):
+    for name, matrix in (("M", eom.M), ("F", forces), ("B", eom.B)):
         for i in range(matrix.rows):
             for j in range(matrix.cols):
                 if name == "M" and j < i:
                     continue          # symmetric
                 index = f"{i + 1},{j + 1}" if matrix.cols > 1 or name == "B" else f"{i + 1}"
-                lines.append(f"{name}[{index}] = {show(tidy(matrix[i, j]))}")
+                added = f" + Q[{index}]" if name == "F" and Q[i] != 0 else ""
+                lines.append(f"{name}[{index}] = {show(tidy(matrix[i, j]))}{added}")
+    if any(entry != 0 for entry in Q):
+        lines.append(heading)
+        lines += [f"Q[{i + 1}] = {show(tidy(entry))}" for i, entry in enumerate(Q) if entry != 0]
     return "\n".join(lines)
 
 
-def _printer(fmt: str, exact: bool):
+def _printer(fmt: str, exact: bool, coordinates=()):
+    names = latex_names(coordinates) if fmt == "latex" else {}
+
     def show(expr: sp.Expr) -> str:
         if not exact:
             expr = expr.xreplace({r: sp.Float(r, 8) for r in expr.atoms(sp.Rational)
                                   if not r.is_Integer})
         if fmt == "latex":
-            return sp.latex(expr)
+            return sp.latex(expr, symbol_names=names)
         return sp.sstr(expr, full_prec=False)
     return show
+
+
+printer = _printer     # (fmt, exact, coordinates) -> show(expr), for other printouts
+
+
+def latex_names(coordinates) -> dict[sp.Symbol, str]:
+    """LaTeX for the rates and accelerations of ``coordinates``: dq1 -> \\dot{q}_{1},
+    ddq1 -> \\ddot{q}_{1} (SymPy alone would print dq_{1}, ddq_{1})."""
+    names = {}
+    for q in coordinates:
+        base = sp.latex(q)
+        head, sub = base, ""
+        if "_{" in base and base.endswith("}"):
+            cut = base.index("_{")
+            head, sub = base[:cut], base[cut:]
+        names[sp.Symbol("d" + q.name, real=True)] = rf"\dot{{{head}}}{sub}"
+        names[sp.Symbol("dd" + q.name, real=True)] = rf"\ddot{{{head}}}{sub}"
+    return names
+
+
+def latex_document(text: str, title: str) -> str:
+    """A printout made with fmt "latex" as a LaTeX document that compiles as it is
+    (pdflatex, amsmath only).  Its lines become: ``# heading`` a paragraph;
+    ``q1: e = 0`` the row ``e &= 0`` tagged (q_1); ``lhs = e`` the row
+    ``lhs &= e`` (``M[1,2]`` written M_{1,2})."""
+    import re
+
+    out = [f"% {title} (anadyn)", r"\documentclass[10pt]{article}", r"\usepackage{amsmath}",
+           r"\allowdisplaybreaks", r"\begin{document}",
+           r"\noindent\textbf{" + _latex_text(title) + "}"]
+    rows: list[str] = []
+
+    def close() -> None:
+        if rows:
+            out.extend([r"\begin{align*}", " \\\\\n".join(rows), r"\end{align*}"])
+            rows.clear()
+
+    for line in text.splitlines():
+        if not line.strip():
+            continue
+        if line.startswith("#"):
+            close()
+            out.append(r"\par\noindent " + _latex_text(line.lstrip("# ")))
+            continue
+        labelled = re.fullmatch(r"([A-Za-z]\w*): (.*) = 0", line)
+        if labelled:
+            label = sp.latex(sp.Symbol(labelled[1]))
+            rows.append(f"  {labelled[2]} &= 0 \\tag*{{$({label})$}}")
+            continue
+        lhs, _, rhs = line.partition(" = ")
+        lhs = re.sub(r"^(\w+)\[([^\]]+)\]", r"\1_{\2}", lhs)
+        rows.append(f"  {lhs} &= {rhs}")
+    close()
+    out.append(r"\end{document}")
+    return "\n".join(out)
+
+
+def _latex_text(text: str) -> str:
+    """Plain text for LaTeX's text mode (its special characters escaped)."""
+    import re
+
+    specials = {"\\": r"\textbackslash{}", "_": r"\_", "%": r"\%", "&": r"\&", "#": r"\#",
+                "$": r"\$", "{": r"\{", "}": r"\}", "^": r"\^{}", "~": r"\~{}"}
+    return re.sub(r"[\\_%&#${}^~]", lambda m: specials[m[0]], text)

@@ -16,22 +16,31 @@ from ...errors import ModelError
 from ...model.robot import Robot
 from . import kane, lagrange
 
-METHODS = {"kane": kane.equations, "lagrange": lagrange.equations}
+FORMULATIONS = {"kane": kane.equations, "lagrange": lagrange.equations}
 
 
-def derive(robot: Robot, method: str = "kane", symbolic: bool = False,
+def derive(robot: Robot, formulation: str = "kane", symbolic: bool = False,
            tidy: bool = True) -> EquationsOfMotion:
-    """M(q) ddq = F(q, dq) + B(q) tau for ``robot`` by ``method``.
+    """M(q) ddq = F(t, q, dq) + B(q) tau for ``robot`` by ``formulation``.
 
     Numeric parameter values are substituted before any differentiation
     unless ``symbolic``; ``tidy`` puts small entries in canonical form.
     """
-    if method not in METHODS:
-        raise ModelError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-    eom = METHODS[method](robot, kinematics.build(robot, symbolic=symbolic))
+    if formulation not in FORMULATIONS:
+        raise ModelError(f"unknown formulation {formulation!r}; choose one of "
+                         f"{', '.join(FORMULATIONS)}")
+    from ...output import progress
+
+    with progress.task(f"deriving {formulation} equations of {robot.name}"):
+        eom = FORMULATIONS[formulation](robot, kinematics.build(robot, symbolic=symbolic))
     if tidy and fits([*eom.M, *eom.F, *eom.B]):
+        if eom.Q is None:
+            F, Q = _tidy(eom.F), None
+        else:       # the rest of F and Q each in canonical form, so Q can be shown apart
+            Q = _tidy(eom.Q)
+            F = sp.ImmutableMatrix(_tidy(sp.ImmutableMatrix(eom.F - eom.Q)) + Q)
         eom = EquationsOfMotion(**{**eom.__dict__, "M": _tidy(eom.M, symmetric=True),
-                                   "F": _tidy(eom.F), "B": _tidy(eom.B)})
+                                   "F": F, "B": _tidy(eom.B), "Q": Q})
     if symbolic:
         eom = EquationsOfMotion(**{**eom.__dict__, "symbolic": True})
     return eom

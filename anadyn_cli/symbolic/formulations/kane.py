@@ -7,6 +7,13 @@ actuator's effort on its body with the reaction on the parent:
 
 where g_i is gravity in body axes and J is the partial angular velocity
 (revolute) or the partial velocity of the coincident points (prismatic).
+Joint forces (``symbolic.forces``) act like actuators, with the joint rate
+measured by the same partials, dtheta = a . (J_child - J_parent) dq; a load,
+force f at point p of body i and torque T, both in body axes, adds
+
+    Q_r = (Vo_i + W_i x p)[:, r] . f + W_i[:, r] . T
+
+(Q is part of F, and kept apart for the printout).
 Generalized inertia forces, with a_i, alpha_i the mass-centre and angular
 accelerations:
 
@@ -21,8 +28,9 @@ from __future__ import annotations
 
 import sympy as sp
 
+from .. import forces
 from ..eom import EquationsOfMotion
-from ..kinematics import Kinematics, cross_columns
+from ..kinematics import BodyKinematics, Kinematics, cross_columns
 from ...model.robot import Robot
 
 Matrix = sp.ImmutableMatrix
@@ -63,17 +71,46 @@ def equations(robot: Robot, kin: Kinematics) -> EquationsOfMotion:
     B = sp.zeros(n, len(robot.actuators))
     index = {kb.body.name: i for i, kb in enumerate(kin.bodies)}
     for k, actuator in enumerate(robot.actuators):
-        b = kin.bodies[index[actuator.body]]
-        parent = kin.bodies[b.parent] if b.parent is not None else None
-        Rt = b.R_local.T
-        if b.body.joint.type == "revolute":     # torque on child, reaction on parent
-            child, carried = b.W, (Rt * parent.W if parent else Matrix.zeros(3, n))
-        else:                                    # force at coincident points
-            child = b.Vo
-            carried = (Rt * (parent.Vo + cross_columns(parent.W, b.origin))
-                       if parent else Matrix.zeros(3, n))
-        B[:, k] = (b.axis.T * (child - carried)).T
+        B[:, k] = joint_partials(kin, kin.bodies[index[actuator.body]]).T
+    Q = generalized_forces(robot, kin)
     return EquationsOfMotion(
-        method="kane", q=q, dq=dq, ddq=tuple(sp.Symbol("dd" + s.name, real=True) for s in q),
+        formulation="kane", q=q, dq=dq, ddq=tuple(sp.Symbol("dd" + s.name, real=True) for s in q),
         efforts=tuple(sp.Symbol(a.name, real=True) for a in robot.actuators),
-        M=Matrix(M), F=Matrix(F), B=Matrix(B))
+        M=Matrix(M), F=Matrix(F + Q) if Q is not None else Matrix(F), B=Matrix(B), Q=Q)
+
+
+def joint_partials(kin: Kinematics, b: BodyKinematics) -> Matrix:
+    """a . (J_child - J_parent) (1 x n): the partial rates along the joint of ``b``,
+    where an effort along the joint, with its reaction on the parent, does work."""
+    n = len(kin.q)
+    parent = kin.bodies[b.parent] if b.parent is not None else None
+    Rt = b.R_local.T
+    if b.body.joint.type == "revolute":     # torque on child, reaction on parent
+        child, carried = b.W, (Rt * parent.W if parent else Matrix.zeros(3, n))
+    else:                                    # force at coincident points
+        child = b.Vo
+        carried = (Rt * (parent.Vo + cross_columns(parent.W, b.origin))
+                   if parent else Matrix.zeros(3, n))
+    return Matrix(b.axis.T * (child - carried))
+
+
+def generalized_forces(robot: Robot, kin: Kinematics) -> Matrix | None:
+    """Q: the joint forces and loads projected on the partial velocities (None: none)."""
+    joints, loads = forces.joint_forces(robot, kin), forces.loads(robot, kin)
+    if not joints and not loads:
+        return None
+    dq_vec = Matrix(kin.dq)
+    Q = sp.zeros(len(kin.q), 1)
+    for joint in joints:
+        b = kin.bodies[joint.body]
+        partials = joint_partials(kin, b)
+        rate = (partials * dq_vec)[0]
+        Q += partials.T * joint.law(b.displacement, rate)
+    for load in loads:
+        b = kin.bodies[load.body]
+        to_body = (lambda v: v) if load.frame == "body" else (lambda v: Matrix(b.R.T * v))
+        if load.force != Matrix.zeros(3, 1):
+            Q += (b.Vo + cross_columns(b.W, load.point)).T * to_body(load.force)
+        if load.torque != Matrix.zeros(3, 1):
+            Q += b.W.T * to_body(load.torque)
+    return Matrix(Q)

@@ -12,11 +12,22 @@ With p_r = dT/d(dq_r), T having no explicit time dependence:
 
 Actuators enter by virtual work: an effort tau_k along a joint whose
 displacement is theta_k(q) does tau_k * d theta_k, so B_rk = d theta_k / dq_r.
+
+Joint forces and loads (``symbolic.forces``) make Q, part of F and kept
+apart for the printout.  Springs come from their potential
+V_s = sum_j k_j/2 (theta_j - rest_j)^2; damping and friction, with
+dtheta_j = sum_s (d theta_j / dq_s) dq_s, and loads by virtual work, a
+force f (world axes) at a point whose world position is r_p(q) and a torque
+T (body axes) on a body of partial angular velocities W:
+
+    Q_r = -dV_s/dq_r + sum_j (-c_j dtheta_j - f_j tanh(dtheta_j / v_j)) d theta_j/dq_r
+          + sum_loads f . d r_p/dq_r + T . W[:, r]
 """
 from __future__ import annotations
 
 import sympy as sp
 
+from .. import forces
 from ..eom import EquationsOfMotion
 from ..kinematics import Kinematics
 from ...model.robot import Robot
@@ -57,7 +68,41 @@ def equations(robot: Robot, kin: Kinematics) -> EquationsOfMotion:
         theta = kin.bodies[index[actuator.body]].displacement
         for r in range(n):
             B[r, k] = sp.diff(theta, q[r])
+    Q = generalized_forces(robot, kin)
     return EquationsOfMotion(
-        method="lagrange", q=q, dq=dq, ddq=tuple(sp.Symbol("dd" + s.name, real=True) for s in q),
+        formulation="lagrange", q=q, dq=dq, ddq=tuple(sp.Symbol("dd" + s.name, real=True) for s in q),
         efforts=tuple(sp.Symbol(a.name, real=True) for a in robot.actuators),
-        M=Matrix(M), F=F, B=Matrix(B))
+        M=Matrix(M), F=Matrix(F + Q) if Q is not None else F, B=Matrix(B), Q=Q)
+
+
+def generalized_forces(robot: Robot, kin: Kinematics) -> Matrix | None:
+    """Q: springs from their potential, the rest by virtual work (None: no such forces)."""
+    joints, loads = forces.joint_forces(robot, kin), forces.loads(robot, kin)
+    if not joints and not loads:
+        return None
+    q, dq = kin.q, kin.dq
+    n = len(q)
+    along = [Derivative({q[r]: 1}) for r in range(n)]
+    rate_of = Derivative(dict(zip(q, dq)))
+    Q = sp.zeros(n, 1)
+    spring = sp.Add(*[j.energy(kin.bodies[j.body].displacement) for j in joints])
+    for r in range(n):
+        Q[r] -= along[r](spring)
+    for joint in joints:
+        theta = kin.bodies[joint.body].displacement
+        force = joint.dissipative(rate_of(theta))
+        if force != 0:
+            for r in range(n):
+                Q[r] += force * along[r](theta)
+    for load in loads:
+        b = kin.bodies[load.body]
+        if load.force != Matrix.zeros(3, 1):
+            point = Matrix(b.position + b.R * (load.point - b.com))      # world axes
+            force = load.force if load.frame == "world" else Matrix(b.R * load.force)
+            for r in range(n):
+                Q[r] += force.dot(point.applyfunc(along[r]))
+        if load.torque != Matrix.zeros(3, 1):
+            torque = load.torque if load.frame == "body" else Matrix(b.R.T * load.torque)
+            for r in range(n):
+                Q[r] += torque.dot(b.W[:, r])
+    return Matrix(Q)

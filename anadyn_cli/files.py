@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError
+from .errors import ModelError
 
 
 class WriteError(ModelError, OSError):
