@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
     Typer itself reports usage errors (exit 2) and --help; anadyn's own
     errors become one line on stderr with their exit code.
     """
-    from .output import progress
+    from . import progress
 
     _register_commands()
     try:

@@ -127,7 +127,7 @@ CASES = [
          "stiffness, rest"),
     case("unknown-inertia-key", rr("{iyy: m2*L2**2/12,", "{iyyy: m2*L2**2/12,"),
          "{file}:23: bodies[1].inertia.iyyy: unknown key; did you mean 'iyy'? allowed: ixx, "
-         "iyy, izz, ixy, ixz, iyz"),
+         "iyy, izz, ixy, ixz, iyz, triangle_inequality"),
     case("unknown-coordinate-key", rr("q2: {initial: pi/6}", "q2: {inital: pi/6}"),
          "{file}:10: coordinates.q2.inital: unknown key; did you mean 'initial'? allowed: "
          "initial, rate, dependent"),

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from anadyn_cli.services import batch
+from anadyn_cli.studies import batch
 from anadyn_cli.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]

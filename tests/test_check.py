@@ -104,7 +104,7 @@ def test_conditioning_threshold(capsys, tmp_path):
 def test_the_balance_catches_a_wrong_actuator_power(monkeypatch):
     """Power taken as tau . dq (forgetting B^T) must break the RR balance: absolute angles
     make B = [[1, -1], [0, 1]], so T12z does work through dq2 - dq1, not dq2."""
-    compiled = numeric_model("robots/rr.yaml"); info = compiled.info
+    compiled = numeric_model("robots/rr.yaml")
     right = stability.check(compiled, t_end=3.0)
     assert right.passed and right.energy_error < 1e-8
 

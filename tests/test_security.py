@@ -341,7 +341,8 @@ def test_source_never_evaluates_text():
                 source = ast.unparse(node)
                 execs.append((where, source))
     assert found == []
-    assert sorted(where for where, _ in execs) == ["anadyn_cli/numeric/model.py",
+    assert sorted(where for where, _ in execs) == ["anadyn_cli/numeric/frames.py",
+                                                   "anadyn_cli/numeric/model.py",
                                                    "anadyn_cli/numeric/trajectory.py"]
     for where, source in execs:                # exec(compile(<generated source>, "<anadyn ...>"))
         assert source.startswith("exec(compile(source, '<anadyn "), (where, source)

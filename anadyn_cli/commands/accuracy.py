@@ -43,7 +43,7 @@ def accuracy(
     import time
 
     from ..numeric.build import numeric_model
-    from ..output import progress
+    from .. import progress
     from ..services import accuracy as service
 
     start = time.perf_counter()

@@ -27,8 +27,8 @@ def batch(
     """
     import sys
 
-    from ..services import batch as service
-    from ..services import executors
+    from ..studies import batch as service
+    from ..studies import executors
 
     plan = service.load_batch(config)
     address = executors.scheduler_address(scheduler)

@@ -39,7 +39,7 @@ def check(
     import time
 
     from ..numeric.build import numeric_model
-    from ..output import progress
+    from .. import progress
     from ..services import check as service
 
     start = time.perf_counter()

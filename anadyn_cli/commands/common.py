@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-RobotArg = typer.Argument(..., help="Robot description (YAML).", show_default=False)
+RobotArg = typer.Argument(..., help="Robot: a YAML or URDF file, or a library name (`anadyn "
+                                         "robots` lists them).", show_default=False)
 
 
 class Formulation(str, Enum):
@@ -46,7 +47,9 @@ FLAGS = {"output_step": "--dt", "t_end": "--t-end", "rtol": "--rtol", "atol": "-
          "max_condition": "--max-condition", "energy_tol": "--energy-tol",
          "samples": "--samples", "probe_calls": "--probe-calls", "repeats": "--repeats",
          "max_calls": "--max-calls", "numeric_tolerance": "--tol",
-         "trajectory_tolerance": "--trajectory-tol", "symbolic_terms": "--symbolic-terms"}
+         "trajectory_tolerance": "--trajectory-tol", "symbolic_terms": "--symbolic-terms",
+         "at": "--at", "efforts": "--efforts", "equilibrium": "--equilibrium",
+         "fragment": "--fragment"}
 
 
 def flag_message(setting: str, reason: str) -> str:

@@ -12,7 +12,8 @@ from ..errors import ModelError
 
 def compare(
     robots: Optional[List[Path]] = typer.Argument(
-        None, help="Robot descriptions (YAML) [default: every robots/*.yaml].",
+        None, help="Robot descriptions (YAML or URDF files, or library names) [default: "
+                   "every robots/*.yaml, else the library's].",
         show_default=False, metavar="ROBOT"),
     samples: int = typer.Option(200, "--samples", help="Random states for the numeric check."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random states."),
@@ -54,10 +55,17 @@ def compare(
 
 
 def robot_files(paths) -> list[Path]:
-    """The given files, or every robots/*.yaml."""
+    """The given files, or every robots/*.yaml, or (no robots/ here) the library's copy."""
     if paths:
         return [Path(p) for p in paths]
     found = sorted(Path("robots").glob("*.yaml"))
+    if not found:
+        from ..model import library
+
+        found = library.shipped_yaml()
+        if found:
+            library.announce(f"no robots/*.yaml here: comparing the library's, in "
+                             f"{found[0].parent}")
     if not found:
         raise ModelError("no robot files given and none in robots/*.yaml")
     return found

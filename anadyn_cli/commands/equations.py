@@ -33,7 +33,7 @@ def equations(
     (with --matrices too, every part asked for is printed, in that order).
     """
     from ..model import load_robot
-    from ..output import progress
+    from .. import progress
     from ..symbolic import render as printout
     from ..symbolic import terms
     from ..symbolic.formulations import derive
@@ -59,5 +59,6 @@ def equations(
                                                  printout.printer))
     text = "\n".join(parts)
     if fmt.value == "latex":
-        text = printout.latex_document(text, f"{model.name}: {formulation.value}, {what} parameters")
+        text = printout.latex_document(text, f"{model.name}: {formulation.value}, "
+                                             f"{what} parameters")
     typer.echo(text)

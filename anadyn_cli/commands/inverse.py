@@ -40,7 +40,7 @@ def inverse(
     import time
 
     from ..numeric.build import numeric_model
-    from ..output import progress
+    from .. import progress
     from ..services import inverse as service
 
     start = time.perf_counter()
@@ -67,4 +67,7 @@ def inverse(
             + (f"; {result.note}" if result.note else ""))
     typer.echo(time_line(result.timings, start))
     typer.echo("wrote " + ", ".join(str(p) for p in written))
+    from ..numeric.limits import lines
+    for line in lines(result.limits):
+        typer.echo(f"anadyn: warning: {line}", err=True)
     service.raise_if_failed(result)

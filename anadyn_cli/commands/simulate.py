@@ -37,7 +37,7 @@ def simulate(
     import time
 
     from ..numeric.build import numeric_model
-    from ..output import progress
+    from .. import progress
     from ..services import simulate as service
 
     start = time.perf_counter()
@@ -76,3 +76,6 @@ def simulate(
     if note:
         typer.echo(f"animation: {note}")
     typer.echo("wrote " + ", ".join(str(p) for p in written))
+    from ..numeric.limits import lines
+    for line in lines(result.limits):
+        typer.echo(f"anadyn: warning: {line}", err=True)

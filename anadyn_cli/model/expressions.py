@@ -22,7 +22,6 @@ from collections.abc import Mapping
 
 import sympy as sp
 
-from .names import CONSTANT_NAMES, FUNCTION_NAMES
 
 #: name -> (sympy function, allowed argument counts; None = two or more)
 FUNCTIONS: dict[str, tuple[object, tuple[int, ...] | None]] = {
@@ -61,6 +60,16 @@ def number(value: object) -> sp.Expr:
     if not math.isfinite(value):
         raise ExpressionError(f"expected a finite number, got {value}")
     return sp.Rational(repr(value))
+
+
+def as_expr(value: object) -> sp.Basic:
+    """A SymPy object for a value that already is one, or a Python int or
+    float: never text (text goes through ``parse``)."""
+    if isinstance(value, sp.Basic):
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise TypeError(f"expected a SymPy expression or a number, got {type(value).__name__}")
+    return sp.Integer(value) if isinstance(value, int) else sp.Float(value)
 
 
 def parse(value: object, names: Mapping[str, sp.Expr],

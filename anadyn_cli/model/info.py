@@ -35,6 +35,23 @@ class CoordinateInfo:
 class ActuatorInfo:
     name: str
     unit: str            # "N*m" or "N"
+    effort_limit: float | None = None     # |effort| bound of its joint's limits
+
+
+@dataclass(frozen=True)
+class JointLimitInfo:
+    """A joint's position and rate bounds (``numeric.limits`` checks runs against them).
+
+    ``displacement`` and ``rate`` are theta(q) and dtheta/dt = sum_i dtheta/dq_i dq_i as
+    expression trees in plain JSON types (``expression_tree``), so that a cached robot
+    is checked without SymPy and without evaluating any text."""
+    label: str           # the coordinate, or "BODY (theta)" for a coupled joint
+    unit: str            # "rad" or "m"
+    displacement: object
+    rate: object
+    lower: float | None = None
+    upper: float | None = None
+    velocity: float | None = None
 
 
 @dataclass(frozen=True)
@@ -47,6 +64,7 @@ class RobotInfo:
     simulation: Simulation
     has_controller: bool
     name_given: bool = True       # False: the name comes from the file name
+    joint_limits: tuple[JointLimitInfo, ...] = ()
 
     @classmethod
     def from_robot(cls, robot) -> "RobotInfo":
@@ -54,9 +72,11 @@ class RobotInfo:
             name=robot.name, source=robot.source, digest=robot.digest,
             coordinates=tuple(CoordinateInfo(c.name, c.unit, float(c.initial), float(c.rate))
                               for c in robot.coordinates),
-            actuators=tuple(ActuatorInfo(a.name, a.unit) for a in robot.actuators),
+            actuators=tuple(ActuatorInfo(a.name, a.unit, _float(robot.body(a.body).joint
+                                                                 .limits.effort))
+                            for a in robot.actuators),
             simulation=robot.simulation, has_controller=robot.controller is not None,
-            name_given=robot.name_given)
+            name_given=robot.name_given, joint_limits=joint_limit_infos(robot))
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -70,4 +90,53 @@ class RobotInfo:
                    coordinates=tuple(CoordinateInfo(**c) for c in data["coordinates"]),
                    actuators=tuple(ActuatorInfo(**a) for a in data["actuators"]),
                    simulation=Simulation(**data["simulation"]),
-                   has_controller=data["has_controller"], name_given=data["name_given"])
+                   has_controller=data["has_controller"], name_given=data["name_given"],
+                   joint_limits=tuple(JointLimitInfo(**j) for j in data.get("joint_limits", ())))
+
+
+def _float(value) -> float | None:
+    return None if value is None else float(value)
+
+
+#: SymPy function -> its name in an expression tree (the robot file's functions)
+TREE_FUNCTIONS = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh",
+                  "exp", "log", "Abs", "sign", "Min", "Max")
+
+
+def expression_tree(expr):
+    """A SymPy expression as nested lists: a number, a symbol's name, or
+    [op, *arguments] with op "+", "*", "**" or a function of TREE_FUNCTIONS."""
+    if expr.is_Symbol:
+        return expr.name
+    if expr.is_Number or expr.is_NumberSymbol:
+        return float(expr)
+    if expr.is_Add or expr.is_Mul:
+        return ["+" if expr.is_Add else "*", *(expression_tree(a) for a in expr.args)]
+    if expr.is_Pow:
+        return ["**", expression_tree(expr.base), expression_tree(expr.exp)]
+    name = type(expr).__name__
+    if name not in TREE_FUNCTIONS:
+        raise ValueError(f"no expression tree for {name}")
+    return [name, *(expression_tree(a) for a in expr.args)]
+
+
+def joint_limit_infos(robot) -> tuple[JointLimitInfo, ...]:
+    """The position and rate bounds of ``robot``'s joints, with parameters substituted."""
+    import sympy as sp
+
+    values = robot.parameter_substitution()
+    result = []
+    for body in robot.bodies:
+        limits = body.joint.limits
+        if body.joint.type == "fixed" or all(getattr(limits, k) is None
+                                              for k in ("lower", "upper", "velocity")):
+            continue
+        theta = body.joint.displacement.xreplace(values)
+        rate = sp.Add(*[sp.diff(theta, c.symbol) * c.rate_symbol for c in robot.coordinates])
+        coordinate = next((c for c in robot.coordinates if theta == c.symbol), None)
+        label = coordinate.name if coordinate else f"{body.name} ({theta.evalf(6)})"
+        unit = "rad" if body.joint.type == "revolute" else "m"
+        result.append(JointLimitInfo(label, unit, expression_tree(theta), expression_tree(rate),
+                                     *(_float(getattr(limits, k)) for k in
+                                       ("lower", "upper", "velocity"))))
+    return tuple(result)

@@ -35,7 +35,7 @@ from .names import GROUND, IDENTIFIER, RESERVED_NAMES, default_name
 from .robot import (JOINT_TYPES, Actuator, Body, Controller, Coordinate, Joint, JointLimits,
                     Load, Robot, Simulation, Trajectory, frozen_map)
 from .info import METHODS
-from .yamlsource import load, read_text
+from .yamlsource import describe_value as _kind, load, read_text
 
 TRAJECTORY_KINDS = ("cycloidal", "quintic", "expression")
 MAX_BODIES = 100          # symbolic derivation is out of reach long before this
@@ -157,19 +157,6 @@ class Cursor:
         if len(items) != 3:
             raise self.error(f"expected a list of 3 components [x, y, z], got {len(items)}")
         return tuple(item.expr(names, unavailable) for item in items)
-
-
-def _kind(value: object) -> str:
-    if value is None:
-        return "nothing (null)"
-    if isinstance(value, bool):
-        return f"the boolean {str(value).lower()}"
-    if isinstance(value, str):
-        return f"the text {value!r}" if len(value) < 40 else "text"
-    if isinstance(value, (int, float)):
-        return f"the number {value!r}" if len(repr(value)) < 40 else "a number"
-    return {dict: "a mapping", list: "a list"}.get(
-        type(value), f"a {type(value).__name__.replace('datetime', 'date and time')}")
 
 
 class _RobotBuilder:

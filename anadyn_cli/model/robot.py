@@ -8,11 +8,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Mapping
+from typing import TYPE_CHECKING, Mapping
 
 import sympy as sp
 
 from .info import Simulation
+
+if TYPE_CHECKING:
+    from .constraints import Constraints
 
 Vector = tuple[sp.Expr, sp.Expr, sp.Expr]
 JOINT_TYPES = ("revolute", "prismatic", "fixed")

@@ -53,7 +53,7 @@ def read_text(path: str | Path, quiet: bool = False) -> tuple[str, str]:
         imported = import_file(path)
         if not quiet:
             for warning in imported.warnings:
-                library.announce(f"warning: {warning}")
+                library.announce(f"warning: {warning}", warning=True)
         return imported.text, name
     try:
         if path.is_dir():
@@ -161,3 +161,17 @@ class _Walker:
             reason = "too many digits" if "digits" in str(err) else str(err)
             raise ModelError(f"cannot read the value {shown!r} ({reason})", source=self.source,
                              path=path or None, line=node.start_mark.line + 1) from None
+
+
+def describe_value(value: object) -> str:
+    """What a YAML value is, for a message: ``the number 3``, ``a list``, ..."""
+    if value is None:
+        return "nothing (null)"
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    if isinstance(value, str):
+        return f"the text {value!r}" if len(value) < 40 else "text"
+    if isinstance(value, (int, float)):
+        return f"the number {value!r}" if len(repr(value)) < 40 else "a number"
+    return {dict: "a mapping", list: "a list"}.get(
+        type(value), f"a {type(value).__name__.replace('datetime', 'date and time')}")

@@ -78,8 +78,11 @@ def _recursive_model(robot, use_cache: bool, timings: dict) -> NumericModel:
     start = time.perf_counter()
     generated = recursive.generate(robot)
     code = recursive.module_source(generated) + trajectory.motion_source(robot)
+    if "def powers(" not in code:     # check's loads' power, dissipation, springs' energy
+        from .closed_form import forces_source
+        code += forces_source(robot)
     c_text = native.c_source(generated)
-    timings["generate"] = time.perf_counter() - start
+    timings["derive"] = time.perf_counter() - start       # the recursive equations
     info = RobotInfo.from_robot(robot)
     start = time.perf_counter()
     model = native.numeric_model(info, code, c_text, "recursive", timings,

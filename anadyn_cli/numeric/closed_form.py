@@ -67,14 +67,30 @@ def powers(robot: Robot, kin: kinematics.Kinematics) -> list[sp.Expr] | None:
     return [sp.Add(*loads_power), sp.Add(*dissipated)]
 
 
-def source(robot: Robot, eom: EquationsOfMotion) -> str:
-    """Python source of the numeric functions for ``robot``'s equations."""
+def forces_source(robot: Robot) -> str:
+    """``powers(t, q, dq)`` (vectorized) for generated code that lacks it (the recursive
+    path), from the kinematics: an independent check of that code's F in ``check``'s
+    energy balance.  "" for a robot without loads or joint forces."""
+    if not robot.loads and not any(b.joint.type != "fixed" and (
+            b.joint.damping != 0 or b.joint.friction != 0 or b.joint.stiffness != 0)
+            for b in robot.bodies):
+        return ""                   # (without building the kinematics)
+    kin = kinematics.build(robot)
+    power = powers(robot, kin)
+    if power is None:
+        return ""
     t = sp.Symbol("t", real=True)
-    q, dq, ddq = list(eom.q), list(eom.dq), list(eom.ddq)
+    function = Function("powers", (t, *kin.q, *kin.dq), (("P", power),), True,
+                        "[power of the loads, power dissipated by joint damping and friction], "
+                        "W.")
+    return "\n" + module_source([function], "loads' power and dissipated power "
+                                             "(anadyn closed_form.forces_source)")
+
+
+def state_partials(M: sp.Matrix, G: sp.Matrix, q: list, dq: list, ddq: list) -> sp.Matrix:
+    """K = [dG/dq - (dM/dq) ddq | dG/d(dq)] (n x 2n), so that d(ddq)/dx = M^-1 K for
+    M ddq = G(t, q, dq) (differentiating it: M d(ddq) = dG - (dM) ddq)."""
     n = len(q)
-    tau = control_laws(robot)
-    G = sp.Matrix(eom.F + eom.B * tau)
-    M = sp.Matrix(eom.M)
     K = sp.zeros(n, 2 * n)
     for k, variable in enumerate(q + dq):
         d = Derivative({variable: 1})
@@ -82,6 +98,17 @@ def source(robot: Robot, eom: EquationsOfMotion) -> str:
         if k < n:
             column -= M.applyfunc(d) * sp.Matrix(ddq)
         K[:, k] = column
+    return K
+
+
+def source(robot: Robot, eom: EquationsOfMotion) -> str:
+    """Python source of the numeric functions for ``robot``'s equations."""
+    t = sp.Symbol("t", real=True)
+    q, dq, ddq = list(eom.q), list(eom.dq), list(eom.ddq)
+    tau = control_laws(robot)
+    G = sp.Matrix(eom.F + eom.B * tau)
+    M = sp.Matrix(eom.M)
+    K = state_partials(M, G, q, dq, ddq)
     kin = kinematics.build(robot, symbolic=eom.symbolic)
     springs = forces.spring_energy(robot, kin)
     potential = kinematics.potential_energy(kin) + springs

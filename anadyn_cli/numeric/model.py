@@ -51,6 +51,7 @@ class NumericModel:
                         if "TRAJECTORY" in namespace else None)
         self._motion_error = namespace.get("MOTION_ERROR")
         self._powers = namespace.get("powers")    # only with loads or joint forces
+        self._namespace = namespace               # the whole module (numeric.constrained)
 
     @property
     def motion(self) -> PrescribedMotion:

@@ -53,7 +53,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError, NumericalError, SettingError
+from ..errors import NumericalError, SettingError
+from ..model.info import RobotInfo
 from ..numeric import constrained, integrators
 from ..numeric.integrators import Problem, state_error
 from ..numeric.model import NumericModel

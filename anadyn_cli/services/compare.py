@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import files as output
-from ..output import progress
+from .. import progress
 from ..errors import CheckFailed, NumericalError, SettingError, positive
 from ..numeric import constrained, integrators
 from ..numeric.model import NumericModel
@@ -356,12 +356,10 @@ def trajectory_check(kane: NumericModel, lagrange: NumericModel,
     """Check (c): (difference, failure message or "")."""
     settings = resolve(kane.info, t_end=t_end)
     grid = output_grid(settings.t_end, settings.output_step)
-    runs = {model.formulation: integrators.integrate(model.problem(), model.initial_state(),
-                                                     grid, settings.method, settings.rtol,
-                                                     settings.atol)
-            for model in (kane, lagrange)}
-    failed = [f"{f}: {r.message}" for f, r in runs.items() if not r.success]
-    a, b = runs["kane"], runs["lagrange"]
+    a, b = (integrators.integrate(model.problem(), model.initial_state(), grid,
+                                  settings.method, settings.rtol, settings.atol)
+            for model in (kane, lagrange))
+    failed = [f"{f}: {r.message}" for f, r in (("kane", a), ("lagrange", b)) if not r.success]
     rows = min(len(a.t), len(b.t))
     xa, xb = a.x[:rows], b.x[:rows]
     absolute = np.abs(xb - xa)

@@ -38,6 +38,7 @@ from ..numeric.integrators import Problem
 from ..numeric.model import NumericModel
 from ..numeric.settings import trajectory_grid
 from .. import files as output
+from ..numeric import limits
 
 DEFAULT_STEP = 0.01          # s, output grid (else the file's simulation.output_step)
 DEFAULT_TOLERANCE = 1e-6     # rad or m, largest round-trip tracking error
@@ -131,6 +132,7 @@ class InverseResult:
     timings: dict = field(default_factory=dict)
     constraints: "constrained.ConstraintRun | None" = None   # multipliers (closed chains)
     note: str = ""                # how redundant actuation was resolved
+    limits: list = field(default_factory=list)   # limits.Exceeded: bounds of the file passed
 
     def to_csv(self, path) -> Path:
         """Write inverse.csv's columns to ``path`` (whole or not at all)."""
@@ -197,6 +199,7 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
     _finite(info, t, tau, "the efforts")
     result = InverseResult(info, model.formulation, motion.kind, motion.duration, step, t,
                            q, dq, ddq, tau, dynamics, timings=timings)
+    result.limits = limits.check(info, t, q, dq, tau)
     if roundtrip:
         result.roundtrip = round_trip(result, tolerance, segment)
         timings["roundtrip"] = result.roundtrip.wall
@@ -308,7 +311,7 @@ def raise_if_failed(result: InverseResult) -> None:
     unit = next(c.unit for c in result.robot.coordinates if c.name == trip.coordinate)
     raise CheckFailed(f"{result.robot.source}: round trip: largest tracking error "
                       f"{trip.max_error:.3g} {unit} ({trip.coordinate} at t = {trip.time:g} s) "
-                      f"exceeds the tolerance {trip.tolerance:g} (--roundtrip-tol)")
+                      f"exceeds the round trip's tolerance {trip.tolerance:g}")
 
 
 def _closed_chain(model, motion, t, step, roundtrip, tolerance, segment, timings):
@@ -337,7 +340,11 @@ def _closed_chain(model, motion, t, step, roundtrip, tolerance, segment, timings
     note = ("" if m == k else f"redundant actuation ({counts}): of the efforts that produce "
             "the motion, the one of least Euclidean norm")
     with np.errstate(all="ignore"):
-        tau, lam = chain.along(t, q, dq, ddq)
+        tau, lam, lost = chain.along(t, q, dq, ddq)
+    if lost is not None:
+        raise ModelError(f"{counts}: the actuators cannot drive every motion the constraints "
+                         f"allow at t = {t[lost]:g} s (a singular configuration for them)",
+                         source=info.source, path="actuators")
     timings["efforts"] = time.perf_counter() - start
     _finite(info, t, tau, "the efforts")
     result = InverseResult(info, model.formulation, motion.kind, motion.duration, step, t,
@@ -587,6 +594,7 @@ def summary(result: InverseResult) -> dict:
             "points_per_second": (len(result.t) / result.timings["efforts"]
                                   if result.timings.get("efforts") else None),
             "efforts": efforts, "roundtrip": roundtrip,
+            "limits": limits.summary(result.robot, result.limits),
             "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)},
             **({} if result.constraints is None else
                {"actuation": result.note or "unique",

@@ -8,7 +8,7 @@ t = k * output_step exactly.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +20,7 @@ from ..numeric.model import NumericModel
 from ..numeric.settings import output_grid, resolve
 from .. import files as output
 from ..output import plots, tables
+from ..numeric import limits
 
 
 @dataclass
@@ -33,6 +34,7 @@ class SimulationResult:
     estimated_error: float | None = None  # integrators.estimate_error, when asked for
     formulation: str = ""                 # kane or lagrange (named in the plot's title)
     constraints: "constrained.ConstraintRun | None" = None   # drift, multipliers (closed chains)
+    limits: list = field(default_factory=list)   # limits.Exceeded: bounds of the file passed
 
     @property
     def t(self) -> np.ndarray:
@@ -76,6 +78,8 @@ def simulate(model: NumericModel, method: str | None = None, rtol: float | None 
     efforts = np.broadcast_to(efforts, (m, len(solution.t))).T
     result = SimulationResult(model.info, settings, solution, np.array(efforts), timings,
                               formulation=model.formulation)
+    result.limits = limits.check(model.info, solution.t, solution.x[:, :n], solution.x[:, n:],
+                                 result.efforts)
     if constrained.is_constrained(model):       # drift and constraint forces on every row
         result.constraints = model.run_report(solution.t, solution.x)
     if estimate_error and solution.success:
@@ -136,6 +140,7 @@ def summary(result: SimulationResult) -> dict:
             "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)},
             **({} if result.estimated_error is None
                else {"estimated_error": result.estimated_error}),
+            "limits": limits.summary(result.robot, result.limits),
             **({} if result.constraints is None else result.constraints.summary())}
 
 

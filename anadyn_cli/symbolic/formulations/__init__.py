@@ -29,7 +29,7 @@ def derive(robot: Robot, formulation: str = "kane", symbolic: bool = False,
     if formulation not in FORMULATIONS:
         raise ModelError(f"unknown formulation {formulation!r}; choose one of "
                          f"{', '.join(FORMULATIONS)}")
-    from ...output import progress
+    from ... import progress
 
     with progress.task(f"deriving {formulation} equations of {robot.name}"):
         eom = FORMULATIONS[formulation](robot, kinematics.build(robot, symbolic=symbolic))

@@ -434,7 +434,7 @@ def run(batch: Batch, out: Path, workers: int | None = None, on_start=None,
 
 def run_on_cluster(batch: Batch, out: Path, scheduler, on_start=None,
                    on_done=None) -> BatchResult:
-    """Every job on a Dask cluster (``services.executors``), one task each.
+    """Every job on a Dask cluster (``studies.executors``), one task each.
 
     No shared file system is needed: the robot file travels with its job, the
     job runs in a temporary folder on a worker (``run_remote``), and its

@@ -1,0 +1,68 @@
+"""anadyn import: a URDF robot as an anadyn robot file."""
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+
+import typer
+
+
+class InertiaPolicy(str, Enum):
+    refuse = "refuse"
+    repair = "repair"
+    accept = "accept"
+
+
+def import_urdf(
+    urdf: Path = typer.Argument(..., help="URDF file, or the name of a library robot "
+                                          "(`anadyn robots`).", show_default=False),
+    output: Path = typer.Option(None, "-o", "--output",
+                                help="Write the robot file here [default: standard output]."),
+    fix_base: bool = typer.Option(False, "--fix-base",
+                                  help="Weld a floating or planar joint that carries the "
+                                       "root link to the world: a fixed-base robot."),
+    inertia: InertiaPolicy = typer.Option(
+        InertiaPolicy.refuse, "--inertia",
+        help="Inertias that no rigid body has (not positive semidefinite, or principal "
+             "moments breaking I1 + I2 >= I3): refuse them, repair them (nearest valid "
+             "tensor), or accept them as given (triangle inequality only); repair and "
+             "accept are stated in a warning."),
+) -> None:
+    """Import a URDF robot as an anadyn robot file (YAML, with comments).
+
+    Links become bodies (links on fixed joints folded into the body they are
+    fixed to), revolute, continuous and prismatic joints coordinates with one
+    actuator each, <mimic> joints coupled displacements; limits, damping and
+    friction are kept.  Every command also takes the .urdf file directly.
+    """
+    from ..model import library
+    from ..model.loader import robot_from_text
+    from ..model.urdf import import_file
+    from ..errors import ModelError
+
+    path = library.resolve(urdf)
+    if path.suffix.lower() != ".urdf":
+        raise ModelError("not a URDF file (expected a .urdf file name)", source=str(path))
+    imported = import_file(path, fix_base=fix_base, inertia=inertia.value)
+    robot = robot_from_text(imported.text, f"{path} (imported)")   # what is written loads
+    for warning in imported.warnings:
+        typer.echo(f"anadyn: warning: {warning}", err=True)
+    summary = (f"{robot.name}: {len(robot.coordinates)} coordinates, {len(robot.bodies)} "
+               f"bodies, {len(robot.actuators)} actuators")
+    if output is None:
+        typer.echo(imported.text, nl=False)
+        typer.echo(f"anadyn: imported {path} ({summary})", err=True)
+        return
+    from ..files import write_text
+
+    if output.is_dir():
+        raise ModelError("is a folder; give the robot file's name, e.g. -o robot.yaml",
+                         source=str(output))
+    if output.exists() and output.resolve() == path.resolve():
+        raise ModelError("is the URDF file itself; give another name, e.g. -o robot.yaml",
+                         source=str(output))
+    write_text(output, imported.text)
+    typer.echo(f"wrote {output} ({summary}) from {path}")
+
+
+import_urdf.cli_name = "import"

@@ -1,0 +1,60 @@
+"""anadyn linearize: state-space matrices, modes and controllability at an operating point."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from enum import Enum
+
+from .common import Formulation, OutOpt, RobotArg, out_dir, time_line
+
+
+class Efforts(str, Enum):
+    auto = "auto"
+    controller = "controller"
+    holding = "holding"
+    zero = "zero"
+
+
+def linearize(
+    robot: Path = RobotArg,
+    at: str = typer.Option(None, "--at", help="Operating point, name=value items separated by "
+                                              "commas: t, coordinates (q1=pi/6), rates "
+                                              "(dq1=0), efforts (T01z=3), or vectors "
+                                              "q=[...], dq=[...], tau=[...] [default: the "
+                                              "file's initial state at t = 0; efforts from "
+                                              "the controller, else static holding efforts]."),
+    equilibrium: bool = typer.Option(False, help="First find the static equilibrium (at rest) "
+                                                 "nearest the given state, under the "
+                                                 "controller, the given efforts, or none."),
+    symbolic: bool = typer.Option(False, help="Also give the matrices with the parameters "
+                                              "and gains as symbols."),
+    efforts: Efforts = typer.Option(Efforts.auto, "--efforts",
+                                help="Efforts at the point unless --at gives them: auto "
+                                     "(the controller's, else static holding efforts), "
+                                     "controller, holding (e.g. about a set point, for a "
+                                     "controller design), zero."),
+    formulation: Formulation = typer.Option(Formulation.kane, "--formulation",
+                                            help="Formulation the equations come from."),
+    out: Path = OutOpt,
+) -> None:
+    """A = d(dx/dt)/dx and B = d(dx/dt)/d(tau) about an operating point, the closed-loop A
+    under the file's control laws, eigenvalues with natural frequencies and damping ratios,
+    and the controllability rank: linearize.json and linearize_*.csv."""
+    import time
+
+    from ..model import load_robot
+    from ..services import linearize as service
+
+    start = time.perf_counter()
+    timings: dict = {}
+    model = load_robot(robot)
+    timings["load"] = time.perf_counter() - start
+    service.check_efforts(model, efforts.value, service.parse_at(at, model))   # before any work
+    result = service.linearize(model, formulation.value, at, equilibrium, symbolic, timings,
+                               efforts=efforts.value)
+    written = service.write(result, out_dir(out, model.name))
+    typer.echo(service.report(result))
+    typer.echo(time_line(timings, start))
+    typer.echo("wrote " + ", ".join(str(p) for p in written))

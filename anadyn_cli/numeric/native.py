@@ -1,0 +1,598 @@
+"""Native code for the integrators' two hot calls: C through the system compiler.
+
+From the traced programs of ``recursive`` this writes one C file with
+
+    int rhs(t, x, out)   out = [dq, ddq], M ddq = F + B tau     0 ok, 1 singular M,
+    int jac(t, x, J)     J = [[0, I], [M^-1 K]] (2n x 2n)        2 non-finite result
+    int acc(t, x, ddq)
+
+(M^-1 K by sparse triangular solves with the Cholesky factor of M), wrapped
+as a CPython extension module (METH_FASTCALL, buffer protocol: no NumPy
+headers, ~0.2 us per call).  Long programs are cut into functions of CHUNK
+statements (gcc's register allocation is superlinear in a basic block's
+length) and compiled at -O1.
+
+When: on a cache miss the run uses the generated Python and the compiler runs
+in a detached process at the lowest priority, leaving the library in
+``<cache folder>-native/`` named by a hash of its C source, the compiler and
+the Python version (``build_in_background``); the next run loads it
+(``load``).  ``ANADYN_NATIVE=wait`` compiles before running, ``ANADYN_NATIVE=0``
+never.  No compiler, no Python headers or a failed compile: the generated
+Python runs (``model.native_note`` says why); nothing else changes, since the
+Python and the C give the same bits (``RecursiveModel.jacobian`` follows the
+C's order of operations).
+
+``NativeModel`` is a ``NumericModel`` whose ``rhs``, ``jacobian`` and
+``accelerations`` call the extension; the vectorized functions (M, F, B,
+efforts, inverse dynamics, energy over arrays of states) stay NumPy.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.machinery
+import importlib.util
+import os
+import re
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .model import NumericModel
+
+#: -O1: as fast as -O2 on these straight-line kernels (measured: arm7 RHS 0.7-1.0 us
+#: against 1.3-2.1 us), compiled in half the time; no fused multiply-add, so that the C
+#: gives the bits of the generated Python
+FLAGS = ("-O1", "-fPIC", "-shared", "-fno-math-errno", "-ffp-contract=off")
+
+
+# ------------------------------------------------------------------ C source --
+
+#: statements per C function: gcc's register allocation grows faster than
+#: linearly with the length of a basic block, so long programs are cut into
+#: functions that pass values through one array
+CHUNK = 300
+
+_ATOM = re.compile(r"\b_(?:[aquw]\d+|t)\b")
+
+
+def _chunked(name: str, params: str, inputs: dict[str, str], statements, outputs,
+             fail: bool) -> list[str]:
+    """``static int name(params)``: inputs (atom -> C expression), the statements
+    in functions of at most CHUNK statements, then ``outputs`` (target, Ex)."""
+    from .ir import c_expr, c_lines
+
+    chunks = [statements[i:i + CHUNK] for i in range(0, len(statements), CHUNK)] or [[]]
+    home = {a: -1 for a in inputs}
+    for k, chunk in enumerate(chunks):
+        for s in chunk:
+            if s.kind != "check":
+                home[s.name] = k
+    slots: dict[str, int] = {}
+
+    def slot(atom):
+        if atom not in slots:
+            slots[atom] = len(slots)
+        return slots[atom]
+
+    for a in inputs:
+        slot(a)
+    for k, chunk in enumerate(chunks):
+        for s in chunk:
+            for a in s.atoms():
+                if home.get(a, k) != k:
+                    slot(a)
+    for _, value in outputs:
+        for mono in value.terms:
+            for a in mono:
+                slot(a)
+    lines = []
+    for k, chunk in enumerate(chunks):
+        local = {s.name for s in chunk if s.kind != "check"}
+
+        def ref(match, local=local):
+            atom = match.group(0)
+            return atom if atom in local else f"v[{slots[atom]}]"
+
+        lines.append(f"static __attribute__((noinline)) int {name}_{k}(double *restrict v) {{")
+        for s in chunk:
+            for text in c_lines([s]):
+                lhs, sep, rhs = text.partition(" = ")
+                lines.append(lhs + sep + _ATOM.sub(ref, rhs) if sep else _ATOM.sub(ref, text))
+            if s.kind != "check" and s.name in slots:
+                lines.append(f"    v[{slots[s.name]}] = {s.name};")
+        lines += ["    return 0;", "}", ""]
+    size = max(1, len(slots))
+    lines.append(f"static int {name}({params}) {{")
+    heap = size > 50000
+    if heap:
+        lines.append(f"    double *v = (double *)malloc(sizeof(double) * {size});")
+        lines.append("    if (!v) return 1;")
+    else:
+        lines.append(f"    double v[{size}];")
+    for a, expr in inputs.items():
+        lines.append(f"    v[{slots[a]}] = {expr};")
+    for k in range(len(chunks)):
+        cleanup = "free(v); " if heap else ""
+        lines.append(f"    if ({name}_{k}(v)) {{ {cleanup}return 1; }}")
+    for target, value in outputs:
+        text = _ATOM.sub(lambda m: f"v[{slots[m.group(0)]}]", c_expr(value))
+        lines.append(f"    {target} = {text};")
+    if heap:
+        lines.append("    free(v);")
+    lines += ["    return 0;", "}", ""]
+    return lines
+
+
+def c_source(gen) -> str | None:
+    """The C file for ``recursive.Generated`` ``gen`` (module name left as MODULE_NAME);
+    None when an expression of the robot file has no C form (the Python runs)."""
+    try:
+        return _c_source(gen)
+    except ValueError:
+        return None
+
+
+def _c_source(gen) -> str:
+    from .ir import prune
+
+    pl = gen.plan
+    n = pl.n
+    acc = gen.functions["accelerations"]
+    factor = gen.functions["factor"]
+    K = gen.functions["dynamics_jacobian"].outputs["K"]
+    k_statements = prune(gen.functions["dynamics_jacobian"].statements,
+                         [x for row in K for x in row])
+    fac = gen.factor
+    keys = sorted(fac.L)
+    position = {key: n + k for k, key in enumerate(keys)}
+    nfac = n + len(keys)
+    state = {"_t": "_t", **{f"_q{k}": f"x[{k}]" for k in range(n)},
+             **{f"_u{k}": f"x[{n + k}]" for k in range(n)}}
+    out = ["/* generated by anadyn (recursive dynamics); see anadyn_cli/numeric/native.py */",
+           "#include <math.h>", "#include <stdlib.h>", "#include <string.h>",
+           f"#define N {n}", f"#define NFAC {nfac}", ""]
+    outputs = [(f"ddq[{k}]", v) for k, v in enumerate(factor.outputs["ddq"])]
+    outputs += [(f"fac[{k}]", v) for k, v in enumerate(factor.outputs["inv"])]
+    outputs += [(f"fac[{n + k}]", v) for k, v in enumerate(factor.outputs["L"])]
+    out += _chunked("fac", "double _t, const double *x, double *ddq, double *fac", state,
+                    factor.statements, outputs, True)
+    if acc.statements is factor.statements:
+        out += ["static int acc(double _t, const double *x, double *ddq) {",
+                "    double f[NFAC];", "    return fac(_t, x, ddq, f);", "}", ""]
+    else:
+        out += _chunked("acc", "double _t, const double *x, double *ddq", state, acc.statements,
+                        [(f"ddq[{k}]", v) for k, v in enumerate(acc.outputs["ddq"])], True)
+    outputs = [(f"K[{r * 2 * n + c}]", v) for r, row in enumerate(K)
+               for c, v in enumerate(row) if not v.is_zero()]
+    out += _chunked("kfill", "double _t, const double *x, const double *w, double *K",
+                    {**state, **{f"_w{k}": f"w[{k}]" for k in range(n)}},
+                    k_statements, outputs, False)
+    out += ["static void kmat(double _t, const double *x, const double *w, double *K) {",
+            f"    memset(K, 0, sizeof(double) * {n * 2 * n});",
+            "    kfill(_t, x, w, K);", "}", ""]
+    # sparse factor tables: row i of L (k < i) and column i of L (k > i)
+    rows = [[(k, position[i, k]) for k in range(i) if (i, k) in fac.L] for i in range(n)]
+    cols = [[(k, position[k, i]) for k in range(i + 1, n) if (k, i) in fac.L] for i in range(n)]
+
+    def table(name, lists):
+        ptr, a, b = [0], [], []
+        for entries in lists:
+            a += [e[0] for e in entries]
+            b += [e[1] for e in entries]
+            ptr.append(len(a))
+        return [f"static const int {name}_PTR[{n + 1}] = {{{', '.join(map(str, ptr))}}};",
+                f"static const int {name}_IDX[{max(1, len(a))}] = {{{', '.join(map(str, a or [0]))}}};",
+                f"static const int {name}_POS[{max(1, len(b))}] = {{{', '.join(map(str, b or [0]))}}};"]
+
+    out += table("ROW", rows) + table("COL", cols)
+    out.append(f"static const int ORDER[N] = {{{', '.join(map(str, fac.order))}}};")
+    out.append(C_DRIVER)
+    return "\n".join(out) + "\n"
+
+
+C_DRIVER = r"""
+static int finite_all(const double *v, int k) {
+    for (int i = 0; i < k; i++) if (!isfinite(v[i])) return 0;
+    return 1;
+}
+
+int anadyn_rhs(double t, const double *x, double *out) {
+    for (int i = 0; i < N; i++) out[i] = x[N + i];
+    if (acc(t, x, out + N)) return 1;
+    return finite_all(out, 2 * N) ? 0 : 2;
+}
+
+int anadyn_acc(double t, const double *x, double *ddq) {
+    if (acc(t, x, ddq)) return 1;
+    return finite_all(ddq, N) ? 0 : 2;
+}
+
+/* J = [[0, I], [M^-1 K]]: P M P^T = L L^T, L stored as fac (1/L_jj, then L_ij). */
+int anadyn_jac(double t, const double *x, double *J) {
+    double ddq[N], factor[NFAC], K[2 * N * N], y[N];
+    double *fac_ = factor;
+    memset(J, 0, sizeof(double) * 4 * N * N);
+    for (int i = 0; i < N; i++) J[i * 2 * N + N + i] = 1.0;
+    if (fac(t, x, ddq, fac_)) return 1;
+    kmat(t, x, ddq, K);
+    for (int c = 0; c < 2 * N; c++) {
+        for (int i = 0; i < N; i++) {
+            double v = K[ORDER[i] * 2 * N + c];
+            for (int e = ROW_PTR[i]; e < ROW_PTR[i + 1]; e++) v -= fac_[ROW_POS[e]] * y[ROW_IDX[e]];
+            y[i] = v * fac_[i];
+        }
+        for (int i = N - 1; i >= 0; i--) {
+            double v = y[i];
+            for (int e = COL_PTR[i]; e < COL_PTR[i + 1]; e++) v -= fac_[COL_POS[e]] * y[COL_IDX[e]];
+            y[i] = v * fac_[i];
+        }
+        for (int i = 0; i < N; i++) J[(N + ORDER[i]) * 2 * N + c] = y[i];
+    }
+    return finite_all(J, 4 * N * N) ? 0 : 2;
+}
+
+#ifdef ANADYN_PYEXT
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+static int buffer(PyObject *o, Py_buffer *b, Py_ssize_t items, int writable) {
+    if (PyObject_GetBuffer(o, b, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0)) < 0)
+        return -1;
+    if (b->itemsize != 8 || (b->format && strcmp(b->format, "d") != 0) || b->len != items * 8) {
+        PyBuffer_Release(b);
+        PyErr_SetString(PyExc_TypeError, "expected a contiguous float64 array of the right size");
+        return -1;
+    }
+    return 0;
+}
+
+typedef int (*kernel)(double, const double *, double *);
+
+static PyObject *call(PyObject *const *args, Py_ssize_t nargs, kernel f, Py_ssize_t nout) {
+    if (nargs != 3) { PyErr_SetString(PyExc_TypeError, "expected (t, x, out)"); return NULL; }
+    double t = PyFloat_AsDouble(args[0]);
+    if (t == -1.0 && PyErr_Occurred()) return NULL;
+    Py_buffer bx, bo;
+    if (buffer(args[1], &bx, 2 * N, 0) < 0) return NULL;
+    if (buffer(args[2], &bo, nout, 1) < 0) { PyBuffer_Release(&bx); return NULL; }
+    int code = f(t, (const double *)bx.buf, (double *)bo.buf);
+    PyBuffer_Release(&bx);
+    PyBuffer_Release(&bo);
+    return PyLong_FromLong(code);
+}
+
+static PyObject *py_rhs(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self; return call(args, nargs, anadyn_rhs, 2 * N);
+}
+static PyObject *py_acc(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self; return call(args, nargs, anadyn_acc, N);
+}
+static PyObject *py_jac(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self; return call(args, nargs, anadyn_jac, 4 * N * N);
+}
+
+static PyMethodDef methods[] = {
+    {"rhs", (PyCFunction)(void (*)(void))py_rhs, METH_FASTCALL, "rhs(t, x, out) -> 0 ok, 1 singular, 2 non-finite"},
+    {"acc", (PyCFunction)(void (*)(void))py_acc, METH_FASTCALL, "acc(t, x, ddq) -> code"},
+    {"jac", (PyCFunction)(void (*)(void))py_jac, METH_FASTCALL, "jac(t, x, J) -> code"},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, MODULE_NAME, NULL, -1, methods};
+
+PyMODINIT_FUNC INIT_FUNCTION(void) { return PyModule_Create(&module); }
+#endif
+"""
+
+
+# ------------------------------------------------------------ compile, load --
+
+#: the generated module's scalar functions come before this line, the vectorized after
+VECTOR_MARK = "# ---- vectorized functions ----"
+#: a build marker older than this is taken as a build that died
+STALE = 900.0
+
+
+def light_source(source: str) -> str:
+    """``source`` without its scalar functions (``accelerations`` and
+    ``dynamics_jacobian`` None): all a native model compiles from Python."""
+    head, mark, tail = source.partition(VECTOR_MARK)
+    if not mark:
+        return source
+    header = head[:head.index("\ndef ") + 1] if "\ndef " in head else head
+    return header + "accelerations = dynamics_jacobian = None\n" + tail
+
+
+def compiler() -> str | None:
+    """The C compiler's path ($CC, else cc, else gcc), or None."""
+    for name in filter(None, (os.environ.get("CC"), "cc", "gcc")):
+        path = shutil.which(name.split()[0])
+        if path:
+            return path
+    return None
+
+
+def python_include() -> str | None:
+    include = sysconfig.get_paths().get("include")
+    return include if include and Path(include, "Python.h").exists() else None
+
+
+def module_name(c_text: str) -> str:
+    key = "|".join([c_text, compiler() or "", sys.version, " ".join(FLAGS)])
+    return "_anadyn_" + hashlib.sha256(key.encode()).hexdigest()[:24]
+
+
+def folder() -> Path:
+    """Beside the derivation cache: <cache folder>-native (the cache folder itself
+    holds one JSON file per derivation)."""
+    from . import cache
+    base = cache.directory()
+    return base.with_name(base.name + "-native")
+
+
+def library_path(c_text: str) -> Path:
+    name = module_name(c_text)
+    return folder() / (name + importlib.machinery.EXTENSION_SUFFIXES[0])
+
+
+def mode() -> str:
+    """ANADYN_NATIVE: "0" off; "wait" compile before running; otherwise
+    (default) use a cached build, else build in the background for next time."""
+    value = os.environ.get("ANADYN_NATIVE", "1").strip().lower()
+    return {"0": "off", "off": "off", "no": "off", "wait": "wait", "sync": "wait"}.get(value, "auto")
+
+
+def unavailable() -> str | None:
+    """Why native code cannot be built here (None: it can)."""
+    if compiler() is None:
+        return "no C compiler found (set CC)"
+    if python_include() is None:
+        return "no Python.h (install the Python headers)"
+    return None
+
+
+def _command(c_file: Path, target: Path) -> list[str]:
+    return [compiler(), *FLAGS, "-DANADYN_PYEXT", f"-I{python_include()}", str(c_file),
+            "-o", str(target), "-lm"]
+
+
+def _write_c(c_text: str, name: str, path: Path) -> None:
+    path.write_text(c_text.replace("MODULE_NAME", f'"{name}"')
+                    .replace("INIT_FUNCTION", f"PyInit_{name}"))
+
+
+def build(c_text: str, timings: dict | None = None) -> tuple[object | None, str]:
+    """Compile now (into the cache folder when it is writable) and load."""
+    import time
+
+    timings = {} if timings is None else timings
+    why = unavailable()
+    if why:
+        return None, why
+    name, path = module_name(c_text), library_path(c_text)
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="anadyn-cc-") as tmp:
+        src = Path(tmp) / f"{name}.c"
+        _write_c(c_text, name, src)
+        built = Path(tmp) / path.name
+        try:
+            result = subprocess.run(_command(src, built), capture_output=True, text=True,
+                                    timeout=1800)
+        except (OSError, subprocess.TimeoutExpired) as err:
+            return None, f"the C compiler failed ({err})"
+        if result.returncode != 0:
+            first = (result.stderr.strip().splitlines() or ["?"])[0]
+            return None, f"the C compiler failed ({first})"
+        target = built
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            staged = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+            shutil.copyfile(built, staged)
+            os.replace(staged, path)
+            target = path
+        except OSError:
+            pass
+        module = _import(name, target)
+    timings["native_compile"] = time.perf_counter() - start
+    if module is None:
+        return None, "the compiled module does not load"
+    return module, "compiled"
+
+
+def build_in_background(c_text: str) -> str:
+    """Start the compiler in a detached process that leaves the library in the
+    cache folder; one build per library at a time."""
+    import time
+
+    why = unavailable()
+    if why:
+        return why
+    name, path = module_name(c_text), library_path(c_text)
+    marker = path.with_name(name + ".building")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if marker.exists() and time.time() - marker.stat().st_mtime < STALE:
+            return "being compiled in the background"
+        marker.write_text(str(os.getpid()))
+        src = path.with_name(name + ".c")
+        _write_c(c_text, name, src)
+    except OSError as err:
+        return f"cache folder not writable ({err})"
+    staged = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    script = ("import os, subprocess, sys\n"
+              "cmd, staged, final, marker, src = sys.argv[1:-4], *sys.argv[-4:]\n"
+              "try:\n"
+              "    if subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)"
+              ".returncode == 0:\n"
+              "        os.replace(staged, final)\n"
+              "finally:\n"
+              "    for p in (marker, src, staged):\n"
+              "        try: os.remove(p)\n"
+              "        except OSError: pass\n")
+    try:
+        subprocess.Popen([sys.executable, "-c", script, *_command(src, staged),
+                          str(staged), str(path), str(marker), str(src)],
+                         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL, start_new_session=True, close_fds=True,
+                         preexec_fn=_lowest_priority if hasattr(os, "nice") else None)
+    except OSError as err:
+        return f"cannot start the compiler ({err})"
+    return "compiling in the background for the next run"
+
+
+def _lowest_priority() -> None:
+    """In the compiler's process: yield the CPU to the run that started it."""
+    try:
+        os.nice(19)
+    except OSError:
+        pass
+
+
+def wait_for_build(c_text: str, timeout: float = 1800.0) -> bool:
+    """Wait until no background build of ``c_text`` runs; True if its library exists."""
+    import time
+
+    path = library_path(c_text)
+    marker = path.with_name(module_name(c_text) + ".building")
+    deadline = time.time() + timeout
+    while marker.exists() and time.time() < deadline:
+        time.sleep(0.05)
+    return path.exists()
+
+
+def load(c_text: str, timings: dict | None = None, how: str | None = None):
+    """(module, note): the library built from ``c_text`` if cached; else, by
+    ``how`` ("auto", "wait", "off"; default ``mode()``), build it in the background
+    (module None: this run uses the generated Python) or now."""
+    timings = {} if timings is None else timings
+    how = how or mode()
+    if how == "off":
+        return None, "native code off (ANADYN_NATIVE=0)"
+    name, path = module_name(c_text), library_path(c_text)
+    if path.exists():
+        module = _import(name, path)
+        if module is not None:
+            timings["native"] = "cached"
+            return module, "cached"
+    if how == "wait":
+        return build(c_text, timings)
+    return None, build_in_background(c_text)
+
+
+def _import(name: str, path: Path):
+    try:
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+    except (ImportError, OSError):
+        return None
+
+
+# --------------------------------------------------------------- the model --
+
+class RecursiveModel(NumericModel):
+    """The generated Python of the recursive path.  Its Jacobian solves
+    M (d ddq/dx) = K with the factor that ``factor`` computes, column by column
+    in the order of the C kernel, so that Python and C give the same bits (a
+    run does not depend on whether the library was built)."""
+
+    def __init__(self, info, source: str, formulation: str = "recursive"):
+        super().__init__(info, source, formulation)
+        module = self._jacobian.__globals__ if self._jacobian is not None else {}
+        self._factor, self._factor_tables = module.get("factor"), module.get("FACTOR")
+
+    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        order, rows, cols = self._factor_tables
+        n = self.n
+        values = np.asarray(x, dtype=float).tolist()
+        ddq, inv, L = self._factor(t, *values)
+        _, K = self._jacobian(t, *values, *ddq)
+        y = [None] * n
+        for i in range(n):
+            v = K[order[i]].copy()
+            for k, e in rows[i]:
+                v -= L[e] * y[k]
+            y[i] = v * inv[i]
+        for i in reversed(range(n)):
+            v = y[i]
+            for k, e in cols[i]:
+                v = v - L[e] * y[k]
+            y[i] = v * inv[i]
+        J = np.zeros((2 * n, 2 * n))
+        J[:n, n:] = np.eye(n)
+        for i in range(n):
+            J[n + order[i]] = y[i]
+        return J
+
+
+class NativeModel(RecursiveModel):
+    """``NumericModel`` whose ``rhs``, ``jacobian`` and ``accelerations`` run in C.
+
+    As in the generated Python, a mass matrix that is not positive definite
+    raises numpy.linalg.LinAlgError; a non-finite result is returned as is
+    (the integrators test every result).  Only the vectorized functions are
+    compiled from Python up front; the scalar Python ``dynamics_jacobian``
+    (M and K) is compiled when first asked for."""
+
+    def __init__(self, info, source: str, formulation: str, module):
+        super().__init__(info, light_source(source), formulation)
+        self.full_source = source
+        self.native = module
+        self._rhs_c, self._jac_c, self._acc_c = module.rhs, module.jac, module.acc
+        self._n2 = 2 * self.n
+        self._python: dict = {}                  # the full generated Python, if asked for
+        self._accelerations = self._native_accelerations
+        self._jacobian = self._python_jacobian
+
+    def _native_accelerations(self, t, *state) -> list[float]:
+        out = np.empty(self.n)
+        if self._acc_c(t, np.array(state, dtype=float), out) == 1:
+            raise np.linalg.LinAlgError("mass matrix not positive definite")
+        return out.tolist()
+
+    def _python_jacobian(self, *args):
+        """dynamics_jacobian (M, K) of the generated Python, compiled when first asked for."""
+        if "model" not in self._python:
+            self._python["model"] = RecursiveModel(self.info, self.full_source, self.formulation)
+        return self._python["model"]._jacobian(*args)
+
+    def accelerations(self, t: float, x) -> list[float]:
+        out = np.empty(self.n)
+        if self._acc_c(t, np.ascontiguousarray(x, dtype=float), out) == 1:
+            raise np.linalg.LinAlgError("mass matrix not positive definite")
+        return out.tolist()
+
+    def rhs(self, t: float, x: np.ndarray) -> np.ndarray:
+        out = np.empty(self._n2)
+        try:
+            code = self._rhs_c(t, x, out)
+        except TypeError:                    # not a contiguous float64 array
+            code = self._rhs_c(t, np.ascontiguousarray(x, dtype=float), out)
+        if code == 1:
+            raise np.linalg.LinAlgError("mass matrix not positive definite")
+        return out
+
+    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        J = np.empty((self._n2, self._n2))
+        if self._jac_c(t, np.ascontiguousarray(x, dtype=float), J) == 1:
+            raise np.linalg.LinAlgError("mass matrix not positive definite")
+        return J
+
+
+def numeric_model(info, code: str, c_text: str | None, formulation: str = "recursive",
+                  timings: dict | None = None, how: str | None = None):
+    """A NativeModel when the C library is cached (or ``how`` "wait" builds it),
+    else the generated Python's NumericModel; ``model.native_note`` says which."""
+    module, why = (None, "no C source") if c_text is None else load(c_text, timings, how)
+    if module is None:
+        model = RecursiveModel(info, code, formulation)
+        model.native_note = f"generated Python ({why})"
+    else:
+        model = NativeModel(info, code, formulation, module)
+        model.native_note = f"native C ({why})"
+    return model

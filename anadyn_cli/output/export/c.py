@@ -1,0 +1,474 @@
+"""C99 export: NAME.h and NAME.c, no allocation, no dependency but <math.h>.
+
+Compiles cleanly with ``gcc -std=c99 -Wall -Wextra -Werror -pedantic``.
+Matrices are row-major arrays the caller provides; the equations' leaf
+functions (mass matrix, forcing, input matrix, control laws, partials) are
+generated with common subexpressions eliminated; the linear algebra (an
+in-place Cholesky factorization of M, and a Jacobi SVD for B's
+pseudo-inverse) is fixed-size loops over local arrays.
+"""
+from __future__ import annotations
+
+import sympy as sp
+from sympy.printing.c import C99CodePrinter
+
+from .model import Block, ExportModel, Named, block, local_names, row_major, temporary_prefix
+
+C_KEYWORDS = {
+    "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
+    "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register",
+    "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch", "typedef",
+    "union", "unsigned", "void", "volatile", "while", "_Bool", "_Complex", "_Imaginary",
+    "bool", "complex", "true", "false", "NULL", "NAN", "INFINITY", "HUGE_VAL", "errno",
+    "main", "asm", "fortran", "entry"}
+C_MATH = {
+    "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "asinh",
+    "acosh", "atanh", "exp", "exp2", "expm1", "log", "log2", "log10", "log1p", "sqrt", "cbrt",
+    "pow", "fabs", "fmin", "fmax", "floor", "ceil", "round", "trunc", "fmod", "hypot", "erf",
+    "erfc", "tgamma", "lgamma", "copysign", "signbit", "isnan", "isinf", "isfinite"}
+#: arguments of the generated leaf functions
+ARGUMENTS = {"t", "q", "dq", "ddq", "p", "M", "F", "B", "K", "tau"}
+
+
+class _Printer(Named, C99CodePrinter):
+    """C99 without the non-standard M_PI macros: constants as exact double literals."""
+
+    def __init__(self, names: dict):
+        super().__init__(names, {"math_macros": {}})
+
+    def _print_NumberSymbol(self, expr):
+        return repr(float(expr))
+
+    _print_Pi = _print_NumberSymbol
+    _print_Exp1 = _print_NumberSymbol
+
+
+def _names(model: ExportModel) -> dict:
+    """Local variable (and params member) names of the robot's symbols."""
+    return local_names(model, C_KEYWORDS | C_MATH | ARGUMENTS)
+
+
+def files(model: ExportModel) -> dict[str, str]:
+    """{"NAME.h": ..., "NAME.c": ...}."""
+    return {f"{model.name}.h": header(model), f"{model.name}.c": source(model)}
+
+
+def _params(model: ExportModel, pointer: bool = True) -> str:
+    return f", const {model.name}_params *p" if model.symbolic and pointer else (
+        ", p" if model.symbolic else "")
+
+
+def _comment(lines: list[str]) -> str:
+    body = "\n".join((" * " + line).rstrip() for line in lines)
+    return "/*\n" + body.replace("*/", "* /") + "\n */"
+
+
+def header(model: ExportModel) -> str:
+    N, P = model.name, _params(model)
+    n, m = model.n, model.m
+    up = N.upper()
+    x_names = ", ".join([c.name for c in model.coordinates]
+                        + ["d" + c.name for c in model.coordinates])
+    doc = [f"{N}.h -- {model.title()}", "",
+           "    M(q) ddq = F(t, q, dq) + B(q) tau,   state x = [q, dq] = [" + x_names + "]", "",
+           f"n = {n} coordinates, m = {m} actuator efforts.  Every matrix is a row-major array",
+           "that the caller provides (n x n: M[i*n + j]); nothing is allocated.  Output arrays",
+           "must not overlap the inputs.", "", *model.units_lines(), "", *model.law_lines(), "",
+           *model.parameter_lines(), ""]
+    if model.symbolic:
+        doc += [f"Every function takes the parameters last, as `const {N}_params *p` (as GSL's",
+                f"ODE functions do); NULL means {N}_default_params, the robot file's values.", ""]
+    p0 = ", NULL" if model.symbolic else ""
+    doc += ["C99, needs only <math.h> (link with -lm).  For example, one explicit Euler step:",
+            "",
+            f"    double x[{up}_N_STATES] = {up}_INITIAL_STATE, dx[{up}_N_STATES];",
+            f"    {N}_rhs(0.0, x, dx{p0});",
+            f"    for (int i = 0; i < {up}_N_STATES; ++i) x[i] += 1e-3 * dx[i];"]
+    lines = [_comment(doc), f"#ifndef {up}_H", f"#define {up}_H", "",
+             f"#define {up}_N_COORDINATES {n}", f"#define {up}_N_EFFORTS {m}",
+             f"#define {up}_N_STATES {2 * n}",
+             "/* x(0) = [q, dq] of the robot file, as an initializer */",
+             f"#define {up}_INITIAL_STATE {{"
+             + ", ".join(repr(v) for v in model.initial_state) + "}", ""]
+    if model.symbolic:
+        lines.append(f"/* parameters and gains; {N}_default_params holds the robot file's "
+                     "values */")
+        lines.append("typedef struct {")
+        names = _names(model)
+        for p in model.parameters:
+            lines.append(f"    double {names[p.symbol]};  /* {p.kind} {p.name}, file value "
+                         f"{p.value!r} */")
+        if not model.parameters:
+            lines.append("    double unused;  /* no parameter appears in the equations */")
+        lines += [f"}} {N}_params;", "", f"extern const {N}_params {N}_default_params;", ""]
+    lines += ['#ifdef __cplusplus', 'extern "C" {', '#endif', ""]
+    for doc_lines, signature in _declarations(model, P):
+        lines.append(_comment(doc_lines).replace("/*\n * ", "/* ", 1))
+        lines.append(signature + ";")
+        lines.append("")
+    lines += ["#ifdef __cplusplus", "}", "#endif", "", f"#endif /* {up}_H */", ""]
+    return "\n".join(lines)
+
+
+def _declarations(model: ExportModel, P: str) -> list[tuple[list[str], str]]:
+    N, n, m = model.name, model.n, model.m
+    lsq = ("B is square: tau = B^-1 (M ddq - F) (B's pseudo-inverse, so NaN-free even "
+           "if B is singular)." if n == m else
+           f"B is {n} x {m}: tau = pinv(B) (M ddq - F), the least-squares efforts (exact only "
+           "if the motion is feasible; check with _accelerations)" if m < n else
+           f"B is {n} x {m}: tau = pinv(B) (M ddq - F), the smallest efforts that produce ddq.")
+    return [
+        ([f"M(q): mass matrix, n x n = {n} x {n}, row-major, symmetric positive definite."],
+         f"void {N}_mass_matrix(const double *q, double *M{P})"),
+        (["F(t, q, dq): n forcing terms: gravity, velocity products, and any joint forces",
+          "and loads of the robot file (everything but the actuators)."],
+         f"void {N}_forcing(double t, const double *q, const double *dq, double *F{P})"),
+        ([f"B(q): input matrix, n x m = {n} x {m}, row-major; B tau are the generalized",
+          "forces of the actuator efforts." + (" (m = 0: writes nothing.)" if m == 0 else "")],
+         f"void {N}_input_matrix(const double *q, double *B{P})"),
+        (["tau(t, q, dq): the m actuator efforts under the robot file's control laws",
+          "(zeros without a controller)."],
+         f"void {N}_efforts(double t, const double *q, const double *dq, double *tau{P})"),
+        (["ddq solving M(q) ddq = F(t, q, dq) + B(q) tau for given efforts tau (open loop).",
+          "Returns 0, or -1 (ddq all NaN) if M is not positive definite."],
+         f"int {N}_accelerations(double t, const double *q, const double *dq, "
+         f"const double *tau, double *ddq{P})"),
+        (["dx/dt = [dq, ddq] at x = [q, dq] (2n values) under the control laws; NaN if M is",
+          "not positive definite.  Fits gsl_odeiv2_system's function once wrapped."],
+         f"void {N}_rhs(double t, const double *x, double *dx{P})"),
+        (["J = d(dx/dt)/dx, 2n x 2n row-major, analytic, under the control laws:",
+          "[[0, I], [M^-1 K]] with K = [dG/dq - (dM/dq) ddq | dG/d(dq)], G = F + B tau(t, q, dq)."],
+         f"void {N}_jacobian(double t, const double *x, double *J{P})"),
+        (["Inverse dynamics: the m efforts that give accelerations ddq at (t, q, dq).", lsq],
+         f"void {N}_inverse(double t, const double *q, const double *dq, const double *ddq, "
+         f"double *tau{P})"),
+    ]
+
+
+def _leaf(model: ExportModel, names: dict, prefix: str, signature: str,
+          outputs: dict[str, sp.Matrix], arrays: list[str], symmetric: str | None = None,
+          dims: dict[str, int] | None = None) -> list[str]:
+    """One generated function: unpack the inputs it uses, temporaries, outputs."""
+    blk: Block = block({k: row_major(v) for k, v in outputs.items()}, names, prefix)
+    printer = _Printer(blk.names)
+    lines = [signature, "{"]
+    if model.symbolic:
+        used_params = [p for p in model.parameters if names[p.symbol] in blk.used]
+        if used_params:
+            lines.append(f"    if (p == 0) p = &{model.name}_default_params;")
+    used_arrays = set()
+    for group, array in ((model.coordinates, "q"), (model.rates, "dq"),
+                         (model.accelerations, "ddq")):
+        for quantity in group:
+            local = names[quantity.symbol]
+            if local in blk.used:
+                lines.append(f"    const double {local} = {array}[{quantity.index}];")
+                used_arrays.add(array)
+    if model.symbolic:
+        for p in model.parameters:
+            local = names[p.symbol]
+            if local in blk.used:
+                lines.append(f"    const double {local} = p->{local};")
+                used_arrays.add("p")
+    if "t" in blk.used:
+        used_arrays.add("t")
+    for array in arrays:
+        if array not in used_arrays:
+            lines.append(f"    (void){array};")
+    for name, expr in blk.temporaries:
+        lines.append(f"    const double {name} = {printer.doprint(expr)};")
+    for key, exprs in blk.outputs.items():
+        rows, cols = outputs[key].shape
+        for i in range(rows):
+            for j in range(cols):
+                if key != symmetric or j <= i:
+                    value = printer.doprint(exprs[i * cols + j])
+                    lines.append(f"    {key}[{i * cols + j}] = {value};")
+        if key == symmetric:        # the upper triangle from the lower
+            lines += [f"    {key}[{i * cols + j}] = {key}[{j * cols + i}];"
+                      for i in range(rows) for j in range(i + 1, cols)]
+    lines.append("}")
+    return lines
+
+
+def source(model: ExportModel) -> str:
+    N, P = model.name, _params(model)
+    Pa = _params(model, pointer=False)
+    n, m = model.n, model.m
+    up = N.upper()
+    NQ, NE = f"{up}_N_COORDINATES", f"{up}_N_EFFORTS"
+    names = _names(model)
+    prefix = temporary_prefix(set(names.values()))
+    extra = ["p"] if model.symbolic else []
+    lines = [_comment([f"{N}.c -- {model.title()}", "",
+                       f"See {N}.h for the functions, their arguments and units."]),
+             "#include <float.h>", "#include <math.h>", "", f'#include "{N}.h"', ""]
+    if model.symbolic:
+        values = ", ".join(repr(p.value) for p in model.parameters) or "0.0"
+        lines += [f"const {N}_params {N}_default_params = {{{values}}};", ""]
+    # -- the equations -------------------------------------------------------
+    lower = sp.Matrix(model.n, model.n, lambda i, j: model.M[i, j] if j <= i else 0)
+    lines += _leaf(model, names, prefix, f"void {N}_mass_matrix(const double *q, double *M{P})",
+                   {"M": lower}, ["q", *extra], symmetric="M") + [""]
+    lines += _leaf(model, names, prefix,
+                   f"void {N}_forcing(double t, const double *q, const double *dq, double *F{P})",
+                   {"F": model.F}, ["t", "q", "dq", *extra]) + [""]
+    if m:
+        lines += _leaf(model, names, prefix,
+                       f"void {N}_input_matrix(const double *q, double *B{P})",
+                       {"B": model.B}, ["q", *extra]) + [""]
+        lines += _leaf(model, names, prefix,
+                       f"void {N}_efforts(double t, const double *q, const double *dq, "
+                       f"double *tau{P})", {"tau": model.laws}, ["t", "q", "dq", *extra]) + [""]
+    else:
+        lines += [f"void {N}_input_matrix(const double *q, double *B{P})", "{",
+                  "    (void)q;", "    (void)B;", *(["    (void)p;"] if extra else []), "}", "",
+                  f"void {N}_efforts(double t, const double *q, const double *dq, double *tau{P})",
+                  "{", "    (void)t;", "    (void)q;", "    (void)dq;", "    (void)tau;",
+                  *(["    (void)p;"] if extra else []), "}", ""]
+    lines.append("/* K = [dG/dq - (dM/dq) ddq | dG/d(dq)], G = F + B tau(t, q, dq): n x 2n */")
+    lines += _leaf(model, names, prefix,
+                   f"static void {N}_partials(double t, const double *q, const double *dq, "
+                   f"const double *ddq, double *K{P})", {"K": model.K},
+                   ["t", "q", "dq", "ddq", *extra]) + [""]
+    # -- linear algebra ------------------------------------------------------
+    lines += _linear_algebra(N, NQ, NE, n, m)
+    # -- the dynamics ----------------------------------------------------------
+    tau_loop = ([f"    {N}_input_matrix(q, B{Pa});",
+                 f"    for (i = 0; i < {NQ}; ++i)",
+                 f"        for (k = 0; k < {NE}; ++k)",
+                 f"            ddq[i] += B[i * {NE} + k] * tau[k];"] if m else ["    (void)tau;"])
+    lines += [
+        "/* ddq solving M ddq = F + B tau; L gets the Cholesky factor of M (lower triangle) */",
+        f"static int {N}_solve(double t, const double *q, const double *dq, const double *tau,",
+        f"                     double *ddq, double *L{P})",
+        "{",
+        *([f"    double B[{NQ} * {NE}];", "    int i, k;"] if m else ["    int i;"]),
+        f"    {N}_mass_matrix(q, L{Pa});",
+        f"    {N}_forcing(t, q, dq, ddq{Pa});",
+        *tau_loop,
+        f"    if ({N}_cholesky(L) != 0) {{",
+        f"        for (i = 0; i < {NQ}; ++i)",
+        "            ddq[i] = NAN;",
+        "        return -1;",
+        "    }",
+        f"    {N}_cholesky_solve(L, ddq);",
+        "    return 0;",
+        "}",
+        "",
+        f"int {N}_accelerations(double t, const double *q, const double *dq, const double *tau,",
+        f"                     double *ddq{P})",
+        "{",
+        f"    double L[{NQ} * {NQ}];",
+        f"    return {N}_solve(t, q, dq, tau, ddq, L{Pa});",
+        "}",
+        "",
+        f"void {N}_rhs(double t, const double *x, double *dx{P})",
+        "{",
+        *([f"    double tau[{NE}];"] if m else []),
+        "    int i;",
+        *([f"    {N}_efforts(t, x, x + {NQ}, tau{Pa});"] if m else []),
+        f"    for (i = 0; i < {NQ}; ++i)",
+        f"        dx[i] = x[{NQ} + i];",
+        f"    (void){N}_accelerations(t, x, x + {NQ}, {'tau' if m else '0'}, dx + {NQ}{Pa});",
+        "}",
+        "",
+        f"void {N}_jacobian(double t, const double *x, double *J{P})",
+        "{",
+        f"    double L[{NQ} * {NQ}], ddq[{NQ}], K[{NQ} * 2 * {NQ}], column[{NQ}];",
+        *([f"    double tau[{NE}];"] if m else []),
+        "    int i, j;",
+        *([f"    {N}_efforts(t, x, x + {NQ}, tau{Pa});"] if m else []),
+        f"    if ({N}_solve(t, x, x + {NQ}, {'tau' if m else '0'}, ddq, L{Pa}) != 0) {{",
+        f"        for (i = 0; i < 4 * {NQ} * {NQ}; ++i)",
+        "            J[i] = NAN;",
+        "        return;",
+        "    }",
+        f"    {N}_partials(t, x, x + {NQ}, ddq, K{Pa});",
+        f"    for (i = 0; i < {NQ}; ++i)",
+        f"        for (j = 0; j < 2 * {NQ}; ++j)",
+        f"            J[i * 2 * {NQ} + j] = (j == {NQ} + i) ? 1.0 : 0.0;",
+        f"    for (j = 0; j < 2 * {NQ}; ++j) {{",
+        f"        for (i = 0; i < {NQ}; ++i)",
+        f"            column[i] = K[i * 2 * {NQ} + j];",
+        f"        {N}_cholesky_solve(L, column);",
+        f"        for (i = 0; i < {NQ}; ++i)",
+        f"            J[({NQ} + i) * 2 * {NQ} + j] = column[i];",
+        "    }",
+        "}",
+        "",
+    ]
+    if m:
+        lines += [
+            f"void {N}_inverse(double t, const double *q, const double *dq, const double *ddq,",
+            f"                 double *tau{P})",
+            "{",
+            f"    double M[{NQ} * {NQ}], r[{NQ}], B[{NQ} * {NE}];",
+            "    int i, j;",
+            f"    {N}_mass_matrix(q, M{Pa});",
+            f"    {N}_forcing(t, q, dq, r{Pa});",
+            f"    {N}_input_matrix(q, B{Pa});",
+            f"    for (i = 0; i < {NQ}; ++i) {{",
+            "        double s = -r[i];",
+            f"        for (j = 0; j < {NQ}; ++j)",
+            f"            s += M[i * {NQ} + j] * ddq[j];",
+            "        r[i] = s;",
+            "    }",
+            f"    {N}_pseudo_solve(B, r, tau);",
+            "}",
+            ""]
+    else:
+        lines += [
+            f"void {N}_inverse(double t, const double *q, const double *dq, const double *ddq,",
+            f"                 double *tau{P})",
+            "{", "    (void)t;", "    (void)q;", "    (void)dq;", "    (void)ddq;",
+            "    (void)tau;",
+            *(["    (void)p;"] if extra else []), "}", ""]
+    return "\n".join(lines)
+
+
+def _linear_algebra(N: str, NQ: str, NE: str, n: int, m: int) -> list[str]:
+    lines = [
+        "/* In place: the lower triangle of the row-major n x n A becomes L, A = L L^T.",
+        "   Returns -1 at a pivot that is not positive (A singular or indefinite, or NaN). */",
+        f"static int {N}_cholesky(double *A)",
+        "{",
+        "    int i, j, k;",
+        f"    for (j = 0; j < {NQ}; ++j) {{",
+        f"        double d = A[j * {NQ} + j];",
+        "        for (k = 0; k < j; ++k)",
+        f"            d -= A[j * {NQ} + k] * A[j * {NQ} + k];",
+        "        if (!(d > 0.0))",
+        "            return -1;",
+        "        d = sqrt(d);",
+        f"        A[j * {NQ} + j] = d;",
+        f"        for (i = j + 1; i < {NQ}; ++i) {{",
+        f"            double s = A[i * {NQ} + j];",
+        "            for (k = 0; k < j; ++k)",
+        f"                s -= A[i * {NQ} + k] * A[j * {NQ} + k];",
+        f"            A[i * {NQ} + j] = s / d;",
+        "        }",
+        "    }",
+        "    return 0;",
+        "}",
+        "",
+        "/* b <- (L L^T)^-1 b, L from _cholesky */",
+        f"static void {N}_cholesky_solve(const double *L, double *b)",
+        "{",
+        "    int i, k;",
+        f"    for (i = 0; i < {NQ}; ++i) {{",
+        "        double s = b[i];",
+        "        for (k = 0; k < i; ++k)",
+        f"            s -= L[i * {NQ} + k] * b[k];",
+        f"        b[i] = s / L[i * {NQ} + i];",
+        "    }",
+        f"    for (i = {NQ} - 1; i >= 0; --i) {{",
+        "        double s = b[i];",
+        f"        for (k = i + 1; k < {NQ}; ++k)",
+        f"            s -= L[k * {NQ} + i] * b[k];",
+        f"        b[i] = s / L[i * {NQ} + i];",
+        "    }",
+        "}",
+        ""]
+    if not m:
+        return lines
+    rows, cols = (n, m) if m <= n else (m, n)
+    # A = B (m <= n) or B^T (m > n): rows x cols, rows >= cols
+    fill = (f"            U[i * {cols} + j] = B[i * {NE} + j];" if m <= n
+            else f"            U[i * {cols} + j] = B[j * {NE} + i];")
+    # pinv(B) r = V S^+ U^T r (m <= n), U S^+ V^T r (m > n)
+    if m <= n:
+        apply = [
+            f"    for (j = 0; j < {cols}; ++j) {{",
+            "        double s = 0.0;",
+            "        if (sigma[j] > tol) {",
+            f"            for (i = 0; i < {rows}; ++i)",
+            f"                s += U[i * {cols} + j] * r[i];",
+            "            s /= sigma[j];",
+            "        }",
+            "        y[j] = s;",
+            "    }",
+            f"    for (i = 0; i < {cols}; ++i) {{",
+            "        double s = 0.0;",
+            f"        for (j = 0; j < {cols}; ++j)",
+            f"            s += V[i * {cols} + j] * y[j];",
+            "        tau[i] = s;",
+            "    }"]
+    else:
+        apply = [
+            f"    for (j = 0; j < {cols}; ++j) {{",
+            "        double s = 0.0;",
+            "        if (sigma[j] > tol) {",
+            f"            for (i = 0; i < {cols}; ++i)",
+            f"                s += V[i * {cols} + j] * r[i];",
+            "            s /= sigma[j];",
+            "        }",
+            "        y[j] = s;",
+            "    }",
+            f"    for (i = 0; i < {rows}; ++i) {{",
+            "        double s = 0.0;",
+            f"        for (j = 0; j < {cols}; ++j)",
+            f"            s += U[i * {cols} + j] * y[j];",
+            "        tau[i] = s;",
+            "    }"]
+    lines += [
+        f"/* tau = pinv(B) r for the row-major n x m = {n} x {m} B, by a one-sided Jacobi SVD",
+        "   (Hestenes) of B or B^T; singular values below max(n, m) eps sigma_max count",
+        "   as zero (MATLAB's pinv tolerance). */",
+        f"static void {N}_pseudo_solve(const double *B, const double *r, double *tau)",
+        "{",
+        f"    double U[{rows} * {cols}], V[{cols} * {cols}], sigma[{cols}], y[{cols}];",
+        "    double tol, largest = 0.0;",
+        "    int i, j, k, sweep, rotated = 1;",
+        f"    for (i = 0; i < {rows}; ++i)",
+        f"        for (j = 0; j < {cols}; ++j)",
+        fill,
+        f"    for (i = 0; i < {cols}; ++i)",
+        f"        for (j = 0; j < {cols}; ++j)",
+        f"            V[i * {cols} + j] = (i == j) ? 1.0 : 0.0;",
+        "    for (sweep = 0; sweep < 60 && rotated; ++sweep) {",
+        "        rotated = 0;",
+        f"        for (j = 0; j + 1 < {cols}; ++j)",
+        f"            for (k = j + 1; k < {cols}; ++k) {{",
+        "                double alpha = 0.0, beta = 0.0, gamma = 0.0, zeta, tn, c, s;",
+        f"                for (i = 0; i < {rows}; ++i) {{",
+        f"                    alpha += U[i * {cols} + j] * U[i * {cols} + j];",
+        f"                    beta += U[i * {cols} + k] * U[i * {cols} + k];",
+        f"                    gamma += U[i * {cols} + j] * U[i * {cols} + k];",
+        "                }",
+        "                if (!(fabs(gamma) > DBL_EPSILON * sqrt(alpha * beta)))",
+        "                    continue;",
+        "                rotated = 1;",
+        "                zeta = (beta - alpha) / (2.0 * gamma);",
+        "                tn = (zeta >= 0.0 ? 1.0 : -1.0) / (fabs(zeta) + hypot(1.0, zeta));",
+        "                c = 1.0 / hypot(1.0, tn);",
+        "                s = c * tn;",
+        f"                for (i = 0; i < {rows}; ++i) {{",
+        f"                    double a = U[i * {cols} + j], b = U[i * {cols} + k];",
+        f"                    U[i * {cols} + j] = c * a - s * b;",
+        f"                    U[i * {cols} + k] = s * a + c * b;",
+        "                }",
+        f"                for (i = 0; i < {cols}; ++i) {{",
+        f"                    double a = V[i * {cols} + j], b = V[i * {cols} + k];",
+        f"                    V[i * {cols} + j] = c * a - s * b;",
+        f"                    V[i * {cols} + k] = s * a + c * b;",
+        "                }",
+        "            }",
+        "    }",
+        f"    for (j = 0; j < {cols}; ++j) {{",
+        "        double s = 0.0;",
+        f"        for (i = 0; i < {rows}; ++i)",
+        f"            s += U[i * {cols} + j] * U[i * {cols} + j];",
+        "        sigma[j] = sqrt(s);",
+        "        if (sigma[j] > largest)",
+        "            largest = sigma[j];",
+        "    }",
+        f"    tol = {max(n, m)} * DBL_EPSILON * largest;",
+        f"    for (j = 0; j < {cols}; ++j)",
+        "        if (sigma[j] > tol)",
+        f"            for (i = 0; i < {rows}; ++i)",
+        f"                U[i * {cols} + j] /= sigma[j];",
+        *apply,
+        "}",
+        ""]
+    return lines

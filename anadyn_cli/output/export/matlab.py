@@ -1,0 +1,179 @@
+"""MATLAB / Octave export: one function file per function, NAME_*.m.
+
+Vectors are columns (inputs may be rows or columns); the linear algebra is
+MATLAB's own (M \\ G, pinv).  With symbolic parameters every function takes a
+struct p last, defaulting to NAME_params() (the robot file's values).
+"""
+from __future__ import annotations
+
+import sympy as sp
+from sympy.printing.octave import OctaveCodePrinter
+
+from .model import ExportModel, Named, block, local_names, row_major, temporary_prefix, wrap
+
+MATLAB_KEYWORDS = {
+    "break", "case", "catch", "classdef", "continue", "else", "elseif", "end", "for",
+    "function", "global", "if", "otherwise", "parfor", "persistent", "return", "spmd",
+    "switch", "try", "while", "do", "until", "unwind_protect", "unwind_protect_cleanup",
+    "end_try_catch", "end_unwind_protect", "endfor", "endfunction", "endif", "endparfor",
+    "endswitch", "endwhile", "endclassdef", "endmethods", "endproperties", "endevents",
+    "endenumeration", "methods", "properties", "events", "enumeration", "__FILE__",
+    "__LINE__"}
+MATLAB_BUILTINS = {
+    "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "exp",
+    "log", "sqrt", "abs", "sign", "min", "max", "pi", "e", "i", "j", "I", "J", "eps", "Inf",
+    "inf", "NaN", "nan", "NA", "zeros", "ones", "eye", "pinv", "size", "numel", "nargin",
+    "nargout", "isempty", "true", "false", "ans", "heaviside", "double", "struct", "rcond",
+    "power", "times", "mtimes", "rdivide", "plus", "minus", "mod", "rem", "floor", "ceil",
+    "round", "fix", "real", "imag", "conj", "isfield", "error", "warning", "disp", "norm",
+    "hypot", "sum", "prod", "length", "ndims", "reshape", "repmat", "cat", "horzcat",
+    "vertcat", "transpose", "ctranspose", "rank", "chol", "lu", "qr", "svd", "det", "inv"}
+ARGUMENTS = {"t", "q", "dq", "ddq", "p", "x", "dx", "M", "F", "B", "K", "J", "tau", "G", "r"}
+
+
+class _Printer(Named, OctaveCodePrinter):
+    def __init__(self, names: dict):
+        super().__init__(names, {"inline": True})
+
+    def _print_Float(self, expr):
+        return repr(float(expr))
+
+
+def _names(model: ExportModel) -> dict:
+    reserved = MATLAB_KEYWORDS | MATLAB_BUILTINS | ARGUMENTS | {
+        f"{model.name}_{s}" for s in ("mass_matrix", "forcing", "input_matrix", "efforts",
+                                      "accelerations", "rhs", "jacobian", "inverse", "params",
+                                      "partials")}
+    return local_names(model, reserved)
+
+
+def _help(name: str, summary: str, lines: list[str]) -> list[str]:
+    """MATLAB help text: H1 line, then the rest."""
+    out = [f"%{name.upper()}  {summary}"]
+    out += [("%   " + line).rstrip() for line in wrap(lines, 88)]
+    return out
+
+
+def files(model: ExportModel) -> dict[str, str]:
+    N, n, m = model.name, model.n, model.m
+    names = _names(model)
+    prefix = temporary_prefix(set(names.values()), "w")
+    sym = model.symbolic
+    P = ", p" if sym else ""
+    common = [""] + [model.title(), "", *model.units_lines(1, "(", ")"), "", *model.law_lines(), "",
+                     *model.parameter_lines()]
+    if sym:
+        common += ["", f"p: parameters struct, default {N}_params() (the robot file's values)."]
+    out: dict[str, str] = {}
+
+    def default_p(count: int) -> list[str]:
+        return [f"  if nargin < {count}", f"    p = {N}_params();", "  end"] if sym else []
+
+    def leaf(fname, outvar, args, summary, doc, matrix, nargs, symmetric=False):
+        blk = block({"X": row_major(matrix)}, names, prefix)
+        printer = _Printer(blk.names)
+        lines = [f"function {outvar} = {N}_{fname}({args})",
+                 *_help(f"{N}_{fname}", summary, doc + common)]
+        lines += default_p(nargs)
+        for group, array in ((model.coordinates, "q"), (model.rates, "dq"),
+                             (model.accelerations, "ddq")):
+            for quantity in group:
+                local = names[quantity.symbol]
+                if local in blk.used:
+                    lines.append(f"  {local} = {array}({quantity.index + 1});")
+        for par in model.parameters:
+            local = names[par.symbol]
+            if local in blk.used:
+                lines.append(f"  {local} = p.{names[par.symbol]};")
+        for temp, expr in blk.temporaries:
+            lines.append(f"  {temp} = {printer.doprint(expr)};")
+        rows, cols = matrix.shape
+        lines.append(f"  {outvar} = zeros({rows}, {cols});")
+        for i in range(rows):
+            for j in range(cols):
+                expr = blk.outputs["X"][i * cols + j]
+                if symmetric and j > i:
+                    continue
+                if expr != 0:
+                    lines.append(f"  {outvar}({i + 1}, {j + 1}) = {printer.doprint(expr)};")
+        if symmetric:
+            lines += [f"  {outvar}({i + 1}, {j + 1}) = {outvar}({j + 1}, {i + 1});"
+                      for i in range(rows) for j in range(i + 1, cols)
+                      if blk.outputs["X"][j * cols + i] != 0]
+        lines.append("end")
+        return lines
+
+    lower = sp.Matrix(n, n, lambda i, j: model.M[i, j] if j <= i else 0)
+    out[f"{N}_mass_matrix.m"] = leaf(
+        "mass_matrix", "M", f"q{P}", "Mass matrix M(q), n x n, symmetric positive definite.",
+        [f"M = {N.upper()}_MASS_MATRIX(q{P})"], lower, 2, symmetric=True)
+    out[f"{N}_forcing.m"] = leaf(
+        "forcing", "F", f"t, q, dq{P}",
+        "Forcing F(t, q, dq): gravity, velocity products, joint forces and loads (n x 1).",
+        [f"F = {N.upper()}_FORCING(t, q, dq{P})"], model.F, 4)
+    out[f"{N}_input_matrix.m"] = leaf(
+        "input_matrix", "B", f"q{P}", "Input matrix B(q), n x m (B tau: generalized forces).",
+        [f"B = {N.upper()}_INPUT_MATRIX(q{P})"], model.B, 2)
+    out[f"{N}_efforts.m"] = leaf(
+        "efforts", "tau", f"t, q, dq{P}",
+        "Actuator efforts under the robot file's control laws (m x 1; zeros without).",
+        [f"tau = {N.upper()}_EFFORTS(t, q, dq{P})"], model.laws, 4)
+    partials = leaf("partials", "K", f"t, q, dq, ddq{P}",
+                    "K = [dG/dq - (dM/dq) ddq, dG/d(dq)], G = F + B tau(t, q, dq), n x 2n.",
+                    [], model.K, 5)
+    partials = [line for line in partials if not line.startswith("%")]
+    out[f"{N}_accelerations.m"] = [
+        f"function ddq = {N}_accelerations(t, q, dq, tau{P})",
+        *_help(f"{N}_accelerations",
+               "Accelerations solving M(q) ddq = F(t, q, dq) + B(q) tau (open loop).",
+               [f"ddq = {N.upper()}_ACCELERATIONS(t, q, dq, tau{P}), tau: m efforts."] + common),
+        *default_p(5),
+        f"  ddq = {N}_mass_matrix(q{P}) \\ ({N}_forcing(t, q, dq{P}) + "
+        f"{N}_input_matrix(q{P}) * tau(:));",
+        "end"]
+    out[f"{N}_rhs.m"] = [
+        f"function dx = {N}_rhs(t, x{P})",
+        *_help(f"{N}_rhs", "State derivative dx/dt = [dq; ddq] under the control laws.",
+               [f"dx = {N.upper()}_RHS(t, x{P}), x = [q; dq] (2n x 1); suits ode45 and ode15s "
+                "(with the Jacobian " + f"{N}_jacobian)."] + common),
+        *default_p(3),
+        "  x = x(:);",
+        f"  q = x(1:{n});",
+        f"  dq = x({n + 1}:{2 * n});",
+        f"  dx = [dq; {N}_accelerations(t, q, dq, {N}_efforts(t, q, dq{P}){P})];",
+        "end"]
+    out[f"{N}_jacobian.m"] = [
+        f"function J = {N}_jacobian(t, x{P})",
+        *_help(f"{N}_jacobian", "Analytic Jacobian d(dx/dt)/dx (2n x 2n) under the control laws.",
+               [f"J = {N.upper()}_JACOBIAN(t, x{P}) = [0, I; M^-1 K], K = [dG/dq - (dM/dq) ddq, "
+                "dG/d(dq)], G = F + B tau(t, q, dq)."] + common),
+        *default_p(3),
+        "  x = x(:);",
+        f"  q = x(1:{n});",
+        f"  dq = x({n + 1}:{2 * n});",
+        f"  ddq = {N}_accelerations(t, q, dq, {N}_efforts(t, q, dq{P}){P});",
+        f"  J = [zeros({n}), eye({n}); {N}_mass_matrix(q{P}) \\ "
+        f"{N}_partials(t, q, dq, ddq{P})];",
+        "end", "", *partials]
+    solve = ("B \\ r" if n == m else "pinv(B) * r")
+    how = ("tau = B \\ (M ddq - F) (B is square)." if n == m else
+           "tau = pinv(B) (M ddq - F): " + ("least squares, exact only if the motion is feasible."
+                                           if m < n else "the smallest efforts that give ddq."))
+    out[f"{N}_inverse.m"] = [
+        f"function tau = {N}_inverse(t, q, dq, ddq{P})",
+        *_help(f"{N}_inverse", "Inverse dynamics: the efforts that give accelerations ddq.",
+               [f"tau = {N.upper()}_INVERSE(t, q, dq, ddq{P}); " + how] + common),
+        *default_p(5),
+        f"  B = {N}_input_matrix(q{P});",
+        f"  r = {N}_mass_matrix(q{P}) * ddq(:) - {N}_forcing(t, q, dq{P});",
+        f"  tau = {solve};" if m else "  tau = zeros(0, 1);",
+        "end"]
+    if sym:
+        fields = [f"  p.{names[par.symbol]} = {par.value!r};  % {par.kind} {par.name}"
+                  for par in model.parameters]
+        out[f"{N}_params.m"] = [
+            f"function p = {N}_params()",
+            *_help(f"{N}_params", "Parameters and gains of the robot file, as a struct.",
+                   ["p = " + f"{N.upper()}_PARAMS()"] + common),
+            "  p = struct();", *fields, "end"]
+    return {k: "\n".join(v) + "\n" for k, v in out.items()}

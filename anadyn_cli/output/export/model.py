@@ -1,0 +1,317 @@
+"""What every exported language needs: the matrices, the names, the documentation.
+
+For n coordinates q (state x = [q, dq]) and m actuator efforts tau:
+
+    M(q) ddq = F(t, q, dq) + B(q) tau            the equations of motion
+    tau_c(t, q, dq)                               the file's control laws (zero without)
+    K(t, q, dq, ddq) = [dG/dq - (dM/dq) ddq | dG/d(dq)],  G = F + B tau_c
+
+so that the Jacobian of the closed-loop state derivative is
+[[0, I], [M^-1 K]] (differentiating M ddq = G gives M d(ddq) = dG - (dM) ddq),
+without inverting M symbolically.  ``ExportModel.build`` derives these once;
+the language modules (``c``, ``python``, ``matlab``, ``latex``) only print.
+
+Names: every robot name (coordinate, parameter, gain) becomes a local
+variable of the generated functions.  ``local_names`` keeps each as it is
+unless it collides with a word the target language reserves or with an
+argument of the generated functions, and then appends underscores.
+"""
+from __future__ import annotations
+
+import re
+import textwrap
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from ... import __version__
+from ...errors import ModelError
+from ...model.robot import Robot
+from ...numeric.closed_form import state_partials
+from ...model.expressions import as_expr
+
+TIME = sp.Symbol("t", real=True)
+#: longest MATLAB identifier (namelengthmax) and our longest function suffix
+MATLAB_NAME_MAX = 63
+LONGEST_SUFFIX = "_input_matrix"
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A named input: a coordinate, a rate, an acceleration, an effort, a parameter or gain."""
+    symbol: sp.Symbol
+    name: str
+    unit: str            # "rad", "m", "rad/s", "N*m", ... ; "" when unknown
+    index: int           # position in its array (parameters: in the params struct)
+    value: float | None = None      # parameters and gains: the file's value
+    kind: str = ""       # "parameter" or "gain" for parameters
+
+
+@dataclass
+class ExportModel:
+    name: str                        # identifier used as file name and prefix
+    robot_name: str
+    source: str
+    formulation: str
+    symbolic: bool
+    coordinates: list[Quantity]
+    rates: list[Quantity]
+    accelerations: list[Quantity]
+    efforts: list[Quantity]
+    parameters: list[Quantity]       # empty unless symbolic
+    has_controller: bool
+    M: sp.Matrix
+    F: sp.Matrix
+    B: sp.Matrix
+    laws: sp.Matrix                  # m x 1
+    K: sp.Matrix                     # n x 2n
+    Q: sp.Matrix | None = None       # joint forces and loads (part of F), when the robot has them
+    time_dependent: bool = False
+    initial_state: list[float] = field(default_factory=list)   # x(0) = [q0, dq0] of the file
+    generator: str = field(default_factory=lambda: f"anadyn {__version__}")
+
+    @property
+    def n(self) -> int:
+        return len(self.coordinates)
+
+    @property
+    def m(self) -> int:
+        return len(self.efforts)
+
+    # -- construction -------------------------------------------------------
+    @classmethod
+    def build(cls, robot: Robot, eom) -> "ExportModel":
+        """The export model of ``robot`` from its equations ``eom`` (symbolic
+        parameters when ``eom.symbolic``; the control laws keep their gains
+        as symbols then too)."""
+        symbolic = bool(eom.symbolic)
+        coordinates = [Quantity(s, s.name, c.unit, i)
+                       for i, (s, c) in enumerate(zip(eom.q, robot.coordinates))]
+        rates = [Quantity(s, s.name, c.unit + "/s", i)
+                 for i, (s, c) in enumerate(zip(eom.dq, robot.coordinates))]
+        accelerations = [Quantity(s, s.name, c.unit + "/s^2", i)
+                         for i, (s, c) in enumerate(zip(eom.ddq, robot.coordinates))]
+        efforts = [Quantity(s, s.name, a.unit, i)
+                   for i, (s, a) in enumerate(zip(eom.efforts, robot.actuators))]
+        laws = control_laws(robot, symbolic)
+        M, F, B = sp.Matrix(eom.M), sp.Matrix(eom.F), sp.Matrix(eom.B)
+        K = partials(M, F, B, laws, list(eom.q), list(eom.dq), list(eom.ddq))
+        parameters: list[Quantity] = []
+        if symbolic:
+            used: set[sp.Symbol] = set()
+            for matrix in (M, F, B, laws):
+                used |= matrix.free_symbols
+            values = robot.parameter_substitution()
+            for name in robot.parameters:
+                symbol = sp.Symbol(name, real=True)
+                if symbol in used:
+                    parameters.append(Quantity(symbol, name, "", len(parameters),
+                                               float(values[symbol]), "parameter"))
+            if robot.controller is not None:
+                for name, value in robot.controller.gains.items():
+                    symbol = sp.Symbol(name, real=True)
+                    if symbol in used:
+                        parameters.append(Quantity(symbol, name, "", len(parameters),
+                                                   float(value.xreplace(values)), "gain"))
+        known = ({TIME} | set(eom.q) | set(eom.dq) | set(eom.ddq)
+                 | {p.symbol for p in parameters})
+        for label, matrix in (("M", M), ("F", F), ("B", B), ("control laws", laws)):
+            stray = matrix.free_symbols - known
+            if stray:       # a bug: nothing in a valid robot leaves other names
+                raise ModelError(f"cannot export: {label} depends on "
+                                 f"{', '.join(sorted(map(str, stray)))}")
+        Q = getattr(eom, "Q", None)
+        return cls(name=identifier(robot.name), robot_name=robot.name, source=robot.source,
+                   formulation=eom.formulation, symbolic=symbolic, coordinates=coordinates,
+                   rates=rates, accelerations=accelerations, efforts=efforts,
+                   parameters=parameters, has_controller=robot.controller is not None,
+                   M=M, F=F, B=B, laws=laws, K=K,
+                   Q=sp.Matrix(Q) if Q is not None and any(e != 0 for e in Q) else None,
+                   time_dependent=any(TIME in e.free_symbols for e in (*F, *laws)),
+                   initial_state=_initial_state(robot))
+
+    # -- documentation shared by the languages --------------------------------
+    def title(self) -> str:
+        method = {"kane": "Kane's method", "lagrange": "Lagrange's equations"}.get(
+            self.formulation, self.formulation)
+        where = "parameters passed in" if self.symbolic else "parameters folded in"
+        return (f"Equations of motion of robot {self.robot_name!r} ({self.source}), "
+                f"by {method}, {where}; generated by {self.generator}.")
+
+    def units_lines(self, base: int = 0, left: str = "[", right: str = "]") -> list[str]:
+        """One line per coordinate and per actuator: index (from ``base``), name, unit."""
+        lines = [f"coordinates q (rates dq, accelerations ddq), index from {base}:"]
+        for c in self.coordinates:
+            i = f"{left}{c.index + base}{right}"
+            lines.append(f"  q{i} = {c.name} ({c.unit}); dq{i} = d{c.name} ({c.unit}/s); "
+                         f"ddq{i} = dd{c.name} ({c.unit}/s^2)")
+        if self.efforts:
+            lines.append(f"actuator efforts tau, index from {base}:")
+            for e in self.efforts:
+                what = "torque" if e.unit == "N*m" else "force"
+                lines.append(f"  tau{left}{e.index + base}{right} = {e.name} ({e.unit}, {what})")
+        else:
+            lines.append("actuator efforts tau: none (m = 0; B has no columns)")
+        lines.append("row r of M ddq, F and B tau is a generalized force along q_r: N*m for "
+                     "an angle, N for a length; time t in s.")
+        if self.time_dependent:
+            lines.append("F or the control laws depend on time t explicitly.")
+        return lines
+
+    def law_lines(self) -> list[str]:
+        if not self.efforts:
+            return ["control laws: none (no actuators)."]
+        if not self.has_controller:
+            return ["control laws: none in the robot file; the state derivative uses zero "
+                    "efforts (passive motion)."]
+        return ["control laws (the file's controller), used by efforts(), rhs() and "
+                "jacobian():"] + [f"  {e.name} = {sp.sstr(law)}"
+                                  for e, law in zip(self.efforts, self.laws)]
+
+    def parameter_lines(self) -> list[str]:
+        if not self.symbolic:
+            return ["parameters: folded in (the robot file's values)."]
+        if not self.parameters:
+            return ["parameters: none appear in the equations."]
+        lines = ["parameters p (the robot file's values as defaults; parameters defined "
+                 "by others are expanded):"]
+        for p in self.parameters:
+            lines.append(f"  {p.name} = {p.value!r} ({p.kind})")
+        return lines
+
+
+def _initial_state(robot: Robot) -> list[float]:
+    values = robot.parameter_substitution()
+    return ([float(c.initial.xreplace(values)) for c in robot.coordinates]
+            + [float(c.rate.xreplace(values)) for c in robot.coordinates])
+
+
+def identifier(name: str, limit: int = MATLAB_NAME_MAX - len(LONGEST_SUFFIX)) -> str:
+    """``name`` as a C, Python and MATLAB identifier: letters, digits and
+    underscores, starting with a letter, short enough for MATLAB function names."""
+    cleaned = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    if not cleaned or not cleaned[0].isalpha():
+        cleaned = "robot_" + cleaned
+    return cleaned[:limit].rstrip("_") or "robot"
+
+
+def control_laws(robot: Robot, symbolic: bool) -> sp.Matrix:
+    """tau_c(t, q, dq), one row per actuator; zeros without a controller.  The
+    parameters (and the gains) stay symbols when ``symbolic``."""
+    m = len(robot.actuators)
+    if robot.controller is None:
+        return sp.zeros(m, 1)
+    values = robot.parameter_substitution(symbolic)
+    if not symbolic:
+        numeric = robot.parameter_substitution()
+        values.update({sp.Symbol(k, real=True): v.xreplace(numeric)
+                       for k, v in robot.controller.gains.items()})
+    return sp.Matrix([robot.controller.laws[a.name].xreplace(values) for a in robot.actuators])
+
+
+def partials(M: sp.Matrix, F: sp.Matrix, B: sp.Matrix, laws: sp.Matrix,
+             q: list, dq: list, ddq: list) -> sp.Matrix:
+    """K = [dG/dq - (dM/dq) ddq | dG/d(dq)] with G = F + B tau_c (n x 2n)."""
+    return state_partials(M, F + B * laws if B.cols else F, q, dq, ddq)
+
+
+def smooth_steps(expr: sp.Expr) -> sp.Expr:
+    """Heaviside(x) (from differentiating min and max) as (sign(x) + 1)/2, which
+    every target language prints (C's math.h and Octave have no Heaviside)."""
+    if not expr.has(sp.Heaviside):
+        return expr
+    return expr.replace(lambda e: isinstance(e, sp.Heaviside),
+                        lambda e: (sp.sign(e.args[0]) + 1) / 2)
+
+
+def local_names(model: ExportModel, reserved: set[str]) -> dict[sp.Symbol, str]:
+    """Symbol -> local variable name: the robot's own name unless ``reserved``
+    (or already taken), then with underscores appended."""
+    taken = set(reserved)
+    result: dict[sp.Symbol, str] = {}
+    for quantity in (*model.coordinates, *model.rates, *model.accelerations,
+                     *model.parameters):
+        name = quantity.name
+        while name in taken:
+            name += "_"
+        taken.add(name)
+        result[quantity.symbol] = name
+    return result
+
+
+def temporary_prefix(names: set[str], base: str = "w") -> str:
+    """A prefix for the cse temporaries (prefix + digits) that no name uses."""
+    prefix = base
+    while any(re.fullmatch(re.escape(prefix) + r"\d+", n) for n in names):
+        prefix += "_"
+    return prefix
+
+
+@dataclass
+class Block:
+    """Outputs of one generated function after common subexpression elimination.
+
+    ``temporaries`` are (name, expression) in evaluation order; ``outputs``
+    maps each output to its row-major list of reduced expressions.  The
+    expressions keep the robot's symbols (renaming would rebuild every tree):
+    a ``Named`` printer given ``names`` shows them, and the temporaries, by
+    their local names.
+    """
+    temporaries: list[tuple[str, sp.Expr]]
+    outputs: dict[str, list[sp.Expr]]
+    used: set[str]                   # local names of the inputs the block reads
+    names: dict                      # symbol -> local name, for the printer
+
+
+class Named:
+    """Printer mix-in: symbols in ``names`` print as their local names."""
+
+    def __init__(self, names: dict, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._local = names
+
+    def _print_Symbol(self, expr, *args, **kwargs):
+        local = self._local.get(expr)
+        return local if local is not None else super()._print_Symbol(expr, *args, **kwargs)
+
+    _print_Dummy = _print_Symbol
+
+
+def block(outputs: dict[str, list[sp.Expr]], renames: dict[sp.Symbol, str],
+          prefix: str) -> Block:
+    """cse over all ``outputs`` together; temporaries named ``prefix`` + digits."""
+    flat: list[sp.Expr] = []
+    for exprs in outputs.values():
+        flat += [smooth_steps(as_expr(e)) for e in exprs]
+    temps, reduced = sp.cse(flat, symbols=sp.numbered_symbols(prefix, cls=sp.Dummy),
+                            order="none")
+    result: dict[str, list[sp.Expr]] = {}
+    position = 0
+    for key, exprs in outputs.items():
+        result[key] = reduced[position:position + len(exprs)]
+        position += len(exprs)
+    names = {**renames, TIME: "t"}
+    symbols: set[sp.Symbol] = set()
+    for expr in [*reduced, *(e for _, e in temps)]:
+        symbols |= expr.free_symbols
+    used = {names[s] for s in symbols if s in names}
+    names.update({symbol: f"{prefix}{k}" for k, (symbol, _) in enumerate(temps)})
+    return Block([(names[s], e) for s, e in temps], result, used, names)
+
+
+def wrap(lines: list[str], width: int = 92) -> list[str]:
+    """Lines longer than ``width`` broken at spaces, continuation lines indented
+    like the line plus two spaces."""
+    out = []
+    for line in lines:
+        if len(line) <= width:
+            out.append(line)
+            continue
+        indent = " " * (len(line) - len(line.lstrip()))
+        out += textwrap.wrap(line, width, subsequent_indent=indent + "  ",
+                             break_long_words=False, break_on_hyphens=False) or [""]
+    return out
+
+
+def row_major(matrix: sp.Matrix) -> list[sp.Expr]:
+    return [matrix[i, j] for i in range(matrix.rows) for j in range(matrix.cols)]

@@ -1,0 +1,252 @@
+"""Python export: one module NAME.py that needs only the standard library.
+
+Inputs are any sequences of floats (lists, tuples, NumPy arrays); results are
+lists (matrices as lists of rows), so ``numpy.array(...)`` turns them into
+arrays when NumPy is at hand.  The equations' functions are generated with
+common subexpressions eliminated, on ``math``; the linear algebra is a
+Cholesky factorization of M and a one-sided Jacobi SVD for B's pseudo-inverse,
+in plain Python.
+"""
+from __future__ import annotations
+
+import builtins
+import keyword
+import textwrap
+
+import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
+
+from .model import ExportModel, Named, block, local_names, row_major, temporary_prefix
+
+#: arguments and module-level names the generated functions use
+ARGUMENTS = {"t", "q", "dq", "ddq", "p", "x", "tau", "math", "PARAMETERS"}
+RESERVED = set(keyword.kwlist) | set(dir(builtins)) | ARGUMENTS
+
+
+class _Printer(Named, PythonCodePrinter):
+    """math.* functions; floats as the shortest repr that reads back exactly."""
+
+    def __init__(self, names: dict):
+        super().__init__(names, {"fully_qualified_modules": True})
+
+    def _print_Float(self, expr):
+        return repr(float(expr))
+
+
+def files(model: ExportModel) -> dict[str, str]:
+    return {f"{model.name}.py": source(model)}
+
+
+def _doc(model: ExportModel) -> str:
+    n, m = model.n, model.m
+    names = [c.name for c in model.coordinates]
+    lines = [f"{model.name}.py -- {model.title()}", "",
+             "    M(q) ddq = F(t, q, dq) + B(q) tau,   state x = [q, dq] = "
+             f"[{', '.join(names + ['d' + c for c in names])}]", "",
+             f"n = {n} coordinates, m = {m} actuator efforts.  Needs only the standard library "
+             "(math).", "Arguments are sequences of floats (lists, tuples or NumPy arrays); "
+             "results are lists,", "matrices as lists of rows.", "",
+             *model.units_lines(), "", *model.law_lines(), "", *model.parameter_lines(), ""]
+    if model.symbolic:
+        lines += ["Every function takes the parameters last, p: a mapping name -> value "
+                  "(default", "PARAMETERS, the robot file's values).", ""]
+    p = ", p" if model.symbolic else ""
+    lines += ["Functions:",
+              f"    mass_matrix(q{p})                 M, n x n, symmetric positive definite",
+              f"    forcing(t, q, dq{p})              F, n: gravity, velocity products, joint "
+              "forces, loads",
+              f"    input_matrix(q{p})                B, n x m",
+              f"    efforts(t, q, dq{p})              tau under the file's control laws (zeros "
+              "without)",
+              f"    accelerations(t, q, dq, tau{p})   ddq solving M ddq = F + B tau (open loop)",
+              f"    rhs(t, x{p})                      dx/dt = [dq, ddq] under the control laws",
+              f"    jacobian(t, x{p})                 d(dx/dt)/dx, 2n x 2n, analytic",
+              f"    inverse(t, q, dq, ddq{p})         tau = pinv(B) (M ddq - F): the efforts for "
+              "ddq",
+              "ValueError when M is not positive definite.  rhs(t, x) suits "
+              "scipy.integrate.solve_ivp."]
+    if m and m < n:
+        lines.append("B is not square (m < n): inverse() gives the least-squares efforts, "
+                     "exact only if the motion is feasible.")
+    elif m > n:
+        lines.append("B is not square (m > n): inverse() gives the smallest efforts that "
+                     "produce ddq.")
+    return "\n".join(lines)
+
+
+def _leaf(model: ExportModel, names: dict, prefix: str, name: str, args: str, doc: str,
+          outputs: dict[str, sp.Matrix], shapes: dict[str, str]) -> list[str]:
+    blk = block({k: row_major(v) for k, v in outputs.items()}, names, prefix)
+    printer = _Printer(blk.names)
+    lines = [f"def {name}({args}):", f'    """{doc}"""']
+    for group, array in ((model.coordinates, "q"), (model.rates, "dq"),
+                         (model.accelerations, "ddq")):
+        for quantity in group:
+            local = names[quantity.symbol]
+            if local in blk.used:
+                lines.append(f"    {local} = {array}[{quantity.index}]")
+    for p in model.parameters:
+        local = names[p.symbol]
+        if local in blk.used:
+            lines.append(f"    {local} = p[{p.name!r}]")
+    for temp, expr in blk.temporaries:
+        lines.append(f"    {temp} = {printer.doprint(expr)}")
+    returned = []
+    for key, exprs in blk.outputs.items():
+        rows, cols = outputs[key].shape
+        text = [repr(float(e)) if e.is_Number else printer.doprint(e) for e in exprs]
+        if shapes[key] == "vector":
+            returned.append("[" + ", ".join(text) + "]")
+        else:
+            returned.append("[" + ", ".join("[" + ", ".join(text[i * cols:(i + 1) * cols]) + "]"
+                                            for i in range(rows)) + "]")
+    lines.append(f"    return {', '.join(returned)}")
+    return lines
+
+
+def source(model: ExportModel) -> str:
+    n, m = model.n, model.m
+    names = local_names(model, RESERVED)
+    prefix = temporary_prefix(set(names.values()), "_w")
+    p = ", p=PARAMETERS" if model.symbolic else ""
+    pp = ", p" if model.symbolic else ""
+    doc = _doc(model).replace("\\", "\\\\").replace('"""', '\\"\\"\\"')
+    lines = ['"""' + doc + '\n"""', "import math", "",
+             f"NAME = {model.robot_name!r}",
+             f"COORDINATES = {tuple(c.name for c in model.coordinates)!r}",
+             f"UNITS = {tuple(c.unit for c in model.coordinates)!r}",
+             f"EFFORTS = {tuple(e.name for e in model.efforts)!r}",
+             f"EFFORT_UNITS = {tuple(e.unit for e in model.efforts)!r}",
+             f"N_COORDINATES = {n}", f"N_EFFORTS = {m}",
+             f"INITIAL_STATE = {model.initial_state!r}     # x(0) = [q, dq] of the robot file"]
+    if model.symbolic:
+        lines.append("PARAMETERS = {" + ", ".join(f"{q.name!r}: {q.value!r}"
+                                                  for q in model.parameters) + "}")
+    lines += ["", ""]
+    lines += _leaf(model, names, prefix, "mass_matrix", f"q{p}",
+                   "M(q): mass matrix, n x n (list of rows), symmetric positive definite.",
+                   {"M": model.M}, {"M": "matrix"}) + ["", ""]
+    lines += _leaf(model, names, prefix, "forcing", f"t, q, dq{p}",
+                   "F(t, q, dq): gravity, velocity products, joint forces and loads (n).",
+                   {"F": model.F}, {"F": "vector"}) + ["", ""]
+    lines += _leaf(model, names, prefix, "input_matrix", f"q{p}",
+                   "B(q): input matrix, n x m (list of rows).",
+                   {"B": model.B}, {"B": "matrix"}) + ["", ""]
+    lines += _leaf(model, names, prefix, "efforts", f"t, q, dq{p}",
+                   "tau(t, q, dq): actuator efforts under the robot file's control laws (m).",
+                   {"tau": model.laws}, {"tau": "vector"}) + ["", ""]
+    lines += _leaf(model, names, prefix, "_partials", f"t, q, dq, ddq{p}",
+                   "K = [dG/dq - (dM/dq) ddq | dG/d(dq)], G = F + B tau(t, q, dq): n x 2n.",
+                   {"K": model.K}, {"K": "matrix"}) + ["", ""]
+    lines += textwrap.dedent(f'''\
+        def accelerations(t, q, dq, tau{p}):
+            """ddq solving M(q) ddq = F(t, q, dq) + B(q) tau for the given efforts tau."""
+            return _solve(t, q, dq, tau{pp})[0]
+
+
+        def rhs(t, x{p}):
+            """dx/dt = [dq, ddq] at x = [q, dq] under the control laws."""
+            q, dq = x[:{n}], x[{n}:{2 * n}]
+            return [float(v) for v in dq] + _solve(t, q, dq, efforts(t, q, dq{pp}){pp})[0]
+
+
+        def jacobian(t, x{p}):
+            """d(dx/dt)/dx at x = [q, dq] under the control laws: [[0, I], [M^-1 K]], 2n x 2n."""
+            q, dq = x[:{n}], x[{n}:{2 * n}]
+            ddq, L = _solve(t, q, dq, efforts(t, q, dq{pp}){pp})
+            K = _partials(t, q, dq, ddq{pp})
+            columns = [_cholesky_solve(L, [row[j] for row in K]) for j in range({2 * n})]
+            top = [[1.0 if j == {n} + i else 0.0 for j in range({2 * n})] for i in range({n})]
+            return top + [[columns[j][i] for j in range({2 * n})] for i in range({n})]
+
+
+        def inverse(t, q, dq, ddq{p}):
+            """Efforts tau = pinv(B) (M ddq - F) that give accelerations ddq at (t, q, dq)."""
+            M = mass_matrix(q{pp})
+            F = forcing(t, q, dq{pp})
+            r = [sum(M[i][j] * ddq[j] for j in range({n})) - F[i] for i in range({n})]
+            return _pseudo_solve(input_matrix(q{pp}), r)
+
+
+        def _solve(t, q, dq, tau{p}):
+            """ddq and the Cholesky factor L of M (M ddq = F + B tau)."""
+            G = forcing(t, q, dq{pp})
+            B = input_matrix(q{pp})
+            G = [G[i] + sum(B[i][k] * tau[k] for k in range({m})) for i in range({n})]
+            L = _cholesky(mass_matrix(q{pp}))
+            return _cholesky_solve(L, G), L
+
+
+        def _cholesky(A):
+            """Lower L with A = L L^T; ValueError unless A is positive definite."""
+            n = len(A)
+            L = [[0.0] * n for _ in range(n)]
+            for j in range(n):
+                d = A[j][j] - sum(L[j][k] ** 2 for k in range(j))
+                if not d > 0.0:
+                    raise ValueError(f"mass matrix not positive definite (pivot {{j}})")
+                L[j][j] = math.sqrt(d)
+                for i in range(j + 1, n):
+                    L[i][j] = (A[i][j] - sum(L[i][k] * L[j][k] for k in range(j))) / L[j][j]
+            return L
+
+
+        def _cholesky_solve(L, b):
+            """(L L^T)^-1 b."""
+            n = len(L)
+            y = [0.0] * n
+            for i in range(n):
+                y[i] = (b[i] - sum(L[i][k] * y[k] for k in range(i))) / L[i][i]
+            for i in reversed(range(n)):
+                y[i] = (y[i] - sum(L[k][i] * y[k] for k in range(i + 1, n))) / L[i][i]
+            return y
+
+
+        def _pseudo_solve(B, r):
+            """pinv(B) r by a one-sided Jacobi SVD (Hestenes) of B or B^T; singular values
+            below max(n, m) eps sigma_max count as zero (MATLAB's pinv tolerance)."""
+            n, m = len(B), (len(B[0]) if B else 0)
+            if m == 0:
+                return []
+            wide = m > n
+            rows, cols = (m, n) if wide else (n, m)
+            U = [[B[j][i] if wide else B[i][j] for j in range(cols)] for i in range(rows)]
+            V = [[1.0 if i == j else 0.0 for j in range(cols)] for i in range(cols)]
+            eps = 2.220446049250313e-16
+            for _ in range(60):
+                rotated = False
+                for j in range(cols - 1):
+                    for k in range(j + 1, cols):
+                        alpha = sum(U[i][j] ** 2 for i in range(rows))
+                        beta = sum(U[i][k] ** 2 for i in range(rows))
+                        gamma = sum(U[i][j] * U[i][k] for i in range(rows))
+                        if not abs(gamma) > eps * math.sqrt(alpha * beta):
+                            continue
+                        rotated = True
+                        zeta = (beta - alpha) / (2.0 * gamma)
+                        tn = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + math.hypot(1.0, zeta))
+                        c = 1.0 / math.hypot(1.0, tn)
+                        s = c * tn
+                        for W in (U, V):
+                            for row in W:
+                                a, b = row[j], row[k]
+                                row[j], row[k] = c * a - s * b, s * a + c * b
+                if not rotated:
+                    break
+            sigma = [math.sqrt(sum(U[i][j] ** 2 for i in range(rows))) for j in range(cols)]
+            tol = max(n, m) * eps * max(sigma)
+            for j in range(cols):
+                if sigma[j] > tol:
+                    for row in U:
+                        row[j] /= sigma[j]
+            left, right = (V, U) if wide else (U, V)     # pinv(B) = right S^+ left^T
+            y = [sum(left[i][j] * r[i] for i in range(len(left))) / sigma[j]
+                 if sigma[j] > tol else 0.0 for j in range(cols)]
+            return [sum(right[i][j] * y[j] for j in range(cols)) for i in range(len(right))]
+        ''').splitlines()
+    lines += ["", "", 'if __name__ == "__main__":',
+              "    x = INITIAL_STATE",
+              '    print("robot", NAME, "at x =", x)',
+              f"    print(\"M =\", mass_matrix(x[:{n}]))",
+              "    print(\"dx/dt =\", rhs(0.0, x))", ""]
+    return "\n".join(lines)

@@ -1,0 +1,237 @@
+"""What a long command is doing, on stderr, while it does it.
+
+    from anadyn_cli import progress
+
+    with progress.task("deriving kane equations of rr"):
+        ...
+    with progress.task("work-precision study", total=len(runs)) as step:
+        for run in runs:
+            step.advance(detail=f"{run.method} rtol {run.rtol:g}")
+
+Three modes, chosen once per command (``session``, opened by the CLI):
+
+- ``live``: stderr is a terminal and ``CI`` is not set: a line per running
+  task drawn by rich (spinner, what it does, a bar when the amount of work is
+  known, the elapsed time, ticking on its own thread), shown once a task has
+  run LIVE_DELAY s and erased when it ends;
+- ``plain``: stderr is not a terminal, or ``CI`` is set: one line when a task
+  has run PLAIN_DELAY s (``anadyn: deriving ... (2 s)``), another every
+  PLAIN_EVERY s while it runs, and one when it ends, so a CI log says what
+  took the time and nothing about what did not;
+- ``off``: ``ANADYN_PROGRESS=off`` (``live`` and ``plain`` force a mode).
+
+Outside a session (anadyn used as a library) tasks cost nothing and print
+nothing.
+"""
+from __future__ import annotations
+
+import os
+import sys
+import threading
+import time
+from contextlib import contextmanager
+
+LIVE_DELAY = 0.3       # s a task runs before its live line appears
+PLAIN_DELAY = 2.0      # s a task runs before its first plain line
+PLAIN_EVERY = 15.0     # s between plain lines of a running task
+TICK = 0.1             # s between checks of the running tasks
+
+_lock = threading.RLock()
+_session: "_Session | None" = None
+
+
+def choose_mode(stream=None) -> str:
+    """``live``, ``plain`` or ``off`` for ``stream`` (default: stderr)."""
+    forced = os.environ.get("ANADYN_PROGRESS", "").strip().lower()
+    if forced in ("0", "off", "no", "false", "never"):
+        return "off"
+    if forced in ("live", "plain"):
+        return forced
+    stream = sys.stderr if stream is None else stream
+    tty = bool(getattr(stream, "isatty", lambda: False)())
+    return "live" if tty and not os.environ.get("CI") else "plain"
+
+
+class Task:
+    """A running piece of work; ``advance`` and ``note`` tell how far it is."""
+
+    def __init__(self, description: str, total: int | None):
+        self.description, self.total = description, total
+        self.completed, self.detail = 0, ""
+        self.start = time.monotonic()
+        self.announced = False          # plain: first line printed
+        self.last_line = 0.0            # plain: when the last line was printed
+        self.live_id = None             # live: rich task id
+
+    def advance(self, step: int = 1, detail: str | None = None) -> None:
+        with _lock:
+            self.completed += step
+            if detail is not None:
+                self.detail = detail
+            if _session is not None:
+                _session.changed(self)
+
+    def note(self, detail: str) -> None:
+        """Say what part of the task runs now."""
+        with _lock:
+            self.detail = detail
+            if _session is not None:
+                _session.changed(self)
+
+    def elapsed(self) -> float:
+        return time.monotonic() - self.start
+
+    def count(self) -> str:
+        return f"{self.completed}/{self.total}" if self.total else ""
+
+    def status(self) -> str:
+        parts = []
+        if self.total:
+            parts.append(f"{self.completed}/{self.total}")
+        if self.detail:
+            parts.append(self.detail)
+        parts.append(f"{self.elapsed():.0f} s")
+        return ", ".join(parts)
+
+
+@contextmanager
+def task(description: str, total: int | None = None):
+    """Run the body as a task named ``description`` (``total`` steps, if known)."""
+    job = Task(description, total)
+    with _lock:
+        session = _session
+        if session is not None:
+            session.add(job)
+    finished = False
+    try:
+        yield job
+        finished = True
+    finally:
+        if session is not None:
+            with _lock:
+                session.remove(job, finished)
+
+
+def active() -> bool:
+    """Whether a command is running (the CLI's session is open), not a library call."""
+    return _session is not None
+
+
+@contextmanager
+def session(stream=None, mode: str | None = None):
+    """Report the tasks run inside to ``stream`` (default: stderr) in ``mode``
+    (default: ``choose_mode``).  Nested sessions use the outer one."""
+    global _session
+    with _lock:
+        outer = _session
+        if outer is None:
+            _session = _Session(sys.stderr if stream is None else stream,
+                                mode or choose_mode(stream))
+        current = _session
+    try:
+        yield current
+    finally:
+        if outer is None:
+            current.close()
+            with _lock:
+                _session = None
+
+
+class _Session:
+    def __init__(self, stream, mode: str):
+        self.stream, self.mode = stream, mode
+        self.tasks: list[Task] = []
+        self.live = None                 # rich Progress while shown
+        self.stop = threading.Event()
+        self.thread = None
+
+    # -- bookkeeping (called with _lock held) --------------------------------
+    def add(self, job: Task) -> None:
+        if self.mode == "off":
+            return
+        self.tasks.append(job)
+        if self.thread is None:
+            self.thread = threading.Thread(target=self._run, name="anadyn-progress",
+                                           daemon=True)
+            self.thread.start()
+
+    def remove(self, job: Task, finished: bool = True) -> None:
+        if job not in self.tasks:
+            return
+        self.tasks.remove(job)
+        if self.mode == "plain" and job.announced:
+            self._write(f"anadyn: {job.description}: "
+                        f"{'done in' if finished else 'stopped after'} {job.elapsed():.1f} s")
+        if self.live is not None and job.live_id is not None:
+            self.live.remove_task(job.live_id)
+        if not self.tasks:
+            self._hide()
+
+    def changed(self, job: Task) -> None:
+        if self.live is not None and job.live_id is not None:
+            self.live.update(job.live_id, completed=job.completed, detail=job.detail,
+                             count=job.count())
+
+    # -- output ---------------------------------------------------------------
+    def _write(self, line: str) -> None:
+        try:
+            self.stream.write(line + "\n")
+            self.stream.flush()
+        except (OSError, ValueError):     # a closed or broken stream: progress is optional
+            pass
+
+    def _show(self) -> None:
+        from rich.console import Console
+        from rich.progress import (BarColumn, Progress, SpinnerColumn, TextColumn,
+                                   TimeElapsedColumn)
+
+        console = Console(file=self.stream, stderr=self.stream is sys.stderr)
+        self.live = Progress(SpinnerColumn(), TextColumn("{task.description}", markup=False),
+                             BarColumn(bar_width=24), TextColumn("{task.fields[count]}"),
+                             TextColumn("{task.fields[detail]}", markup=False),
+                             TimeElapsedColumn(), console=console, transient=True,
+                             refresh_per_second=8)
+        self.live.start()
+
+    def _hide(self) -> None:
+        if self.live is not None:
+            live, self.live = self.live, None
+            for job in self.tasks:
+                job.live_id = None
+            live.stop()
+
+    def _run(self) -> None:
+        while not self.stop.wait(TICK):
+            with _lock:
+                if self.mode == "live":
+                    self._tick_live()
+                else:
+                    self._tick_plain()
+
+    def _tick_live(self) -> None:
+        due = [job for job in self.tasks if job.live_id is None and job.elapsed() >= LIVE_DELAY]
+        if not due:
+            return
+        if self.live is None:
+            self._show()
+        for job in due:
+            job.live_id = self.live.add_task(job.description, total=job.total,
+                                             completed=job.completed, detail=job.detail,
+                                             count=job.count())
+
+    def _tick_plain(self) -> None:
+        now = time.monotonic()
+        for job in self.tasks:
+            if not job.announced and job.elapsed() >= PLAIN_DELAY:
+                job.announced, job.last_line = True, now
+                self._write(f"anadyn: {job.description} ... ({job.status()})")
+            elif job.announced and now - job.last_line >= PLAIN_EVERY:
+                job.last_line = now
+                self._write(f"anadyn: {job.description}: {job.status()}")
+
+    def close(self) -> None:
+        self.stop.set()
+        with _lock:
+            self._hide()
+        if self.thread is not None:
+            self.thread.join(timeout=1.0)

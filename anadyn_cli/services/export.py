@@ -1,0 +1,99 @@
+"""Export the equations of motion as standalone files: C, Python, MATLAB/Octave, LaTeX.
+
+For n coordinates and m actuators the code files hold, with no dependency on
+anadyn (C: <math.h>; Python: math; MATLAB: none):
+
+    mass_matrix(q)            M, n x n            forcing(t, q, dq)      F, n
+    input_matrix(q)           B, n x m            efforts(t, q, dq)      the control laws
+    accelerations(t, q, dq, tau)   ddq from M ddq = F + B tau   (open loop)
+    rhs(t, x)                 [dq, ddq] under the control laws, x = [q, dq]
+    jacobian(t, x)            d(rhs)/dx, analytic: [[0, I], [M^-1 K]]
+    inverse(t, q, dq, ddq)    tau = pinv(B) (M ddq - F)
+
+and the LaTeX document the equations in the "... = 0" form and M, F, B.
+Parameters are folded in, or (``symbolic``) passed in as a struct / mapping
+whose defaults are the robot file's values.  The inverse dynamics use B's
+pseudo-inverse: B square and invertible gives the exact efforts; with fewer
+actuators than coordinates the least-squares ones (exact only for a feasible
+motion); with more, the smallest efforts that produce the motion.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..model.constraints import refuse_closed_chain
+from ..errors import SettingError, ModelError
+from .. import files as output
+
+LANGUAGES = ("python", "c", "matlab", "latex")
+
+
+@dataclass
+class ExportResult:
+    lang: str
+    model: object                      # output.export.model.ExportModel
+    files: dict[str, str]              # file name -> text
+    fragment: bool = False
+    timings: dict = field(default_factory=dict)
+
+
+def check_options(lang: str, fragment: bool = False) -> None:
+    """Refuse impossible combinations before any work (ModelError, exit 2)."""
+    if lang not in LANGUAGES:
+        raise ModelError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
+    if fragment and lang != "latex":
+        raise SettingError("fragment", f"applies to lang latex only, not {lang}")
+
+
+def export(robot, lang: str, formulation: str = "kane", symbolic: bool = False,
+           fragment: bool = False, timings: dict | None = None, eom=None) -> ExportResult:
+    """The files of ``robot``'s equations in ``lang`` (``eom``: equations already derived,
+    with ``symbolic`` parameters or not as asked)."""
+    from ..output.export import c, latex, matlab, python
+    from ..output.export.model import ExportModel
+    from ..symbolic.formulations import derive
+
+    check_options(lang, fragment)
+    refuse_closed_chain(robot, "export")
+    timings = {} if timings is None else timings
+    start = time.perf_counter()
+    if eom is None:
+        eom = derive(robot, formulation, symbolic=symbolic)
+    timings["derive"] = time.perf_counter() - start
+    start = time.perf_counter()
+    model = ExportModel.build(robot, eom)
+    if lang == "latex":
+        texts = latex.files(model, fragment)
+    else:
+        texts = {"c": c.files, "python": python.files, "matlab": matlab.files}[lang](model)
+    timings["generate"] = time.perf_counter() - start
+    return ExportResult(lang, model, texts, fragment, timings)
+
+
+def write(result: ExportResult, out: Path) -> list[Path]:
+    """Every file, then export.json; each written whole or not at all."""
+    out = output.prepare_dir(out)
+    written = []
+    for name, text in result.files.items():
+        written.append(out / name)
+        output.write_text(written[-1], text)
+    written.append(out / "export.json")
+    output.write_json(written[-1], summary(result))
+    return written
+
+
+def summary(result: ExportResult) -> dict:
+    model = result.model
+    return {
+        "robot": model.robot_name, "name": model.name, "lang": result.lang,
+        "formulation": model.formulation, "symbolic": model.symbolic,
+        "fragment": result.fragment, "coordinates": [c.name for c in model.coordinates],
+        "efforts": [e.name for e in model.efforts], "controller": model.has_controller,
+        "time_dependent": model.time_dependent,
+        "parameters": {p.name: p.value for p in model.parameters},
+        "files": {name: {"bytes": len(text.encode("utf-8")), "lines": text.count("\n")}
+                  for name, text in result.files.items()},
+        "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)},
+    }

@@ -1,0 +1,272 @@
+"""The robot drawn at one pose (``show``) and animated along a run (``animate``).
+
+Positions come from ``numeric.frames``: the kinematics the equations of
+motion are derived from, turned into a vectorized function.  ``show.json``
+lists every drawn point, so a drawing can be checked by numbers too.
+
+Animation: at most MAX_FRAMES frames, evenly spaced over the run, played in
+real time when that stays between MIN_FRAME_MS per frame and MAX_PLAYBACK s
+in all (faster otherwise, and the title says how much faster); the time is
+in the title of every frame.  animate.gif is always written (Pillow, which
+Matplotlib brings); animate.mp4 too when ``ffmpeg`` is on the PATH.
+"""
+from __future__ import annotations
+
+import io
+import math
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ModelError
+from ..numeric.frames import Frames, Poses, Skeleton
+from .. import progress
+from ..output import drawing, plots
+from .. import files as output
+
+MAX_FRAMES = 150
+MIN_FRAME_MS = 40          # 25 frames per second at most
+MAX_PLAYBACK = 20.0        # s: longer runs play faster than real time
+DEGREE_SUFFIXES = ("deg", "°")
+
+
+# -- poses ---------------------------------------------------------------------------
+def parse_at(skeleton: Skeleton, items) -> np.ndarray:
+    """The initial coordinates with ``items`` (``q1=0.3``, ``q2=pi/4``, ``q1=30deg``;
+    several in one item separated by commas) put in; ModelError naming the item."""
+    from ..model import expressions
+
+    q = np.array(skeleton.initial, dtype=float)
+    names = list(skeleton.coordinates)
+    for item in items or ():
+        for part in (p.strip() for p in str(item).split(",")):
+            if not part:
+                continue
+            name, sign, text = part.partition("=")
+            name, text = name.strip(), text.strip()
+            if not sign or not name or not text:
+                raise ModelError(f"--at {part}: expected COORDINATE=VALUE, e.g. "
+                                 f"{names[0]}=0.5 or {names[0]}=30deg")
+            if name not in names:
+                raise ModelError(f"--at {part}: unknown coordinate {name!r}; coordinates: "
+                                 f"{', '.join(names)}")
+            i = names.index(name)
+            degrees = text.endswith(DEGREE_SUFFIXES)
+            if degrees:
+                if skeleton.units[i] != "rad":
+                    raise ModelError(f"--at {part}: {name} is a length in m; degrees apply "
+                                     "to angles")
+                text = text[:-3] if text.endswith("deg") else text[:-1]
+            try:
+                value = float(expressions.parse(text.strip(), {}))
+            except (expressions.ExpressionError, TypeError, ValueError) as err:
+                raise ModelError(f"--at {part}: {err}") from None
+            if not math.isfinite(value):
+                raise ModelError(f"--at {part}: not a finite number")
+            q[i] = math.radians(value) if degrees else value
+    return q
+
+
+def pose_text(skeleton: Skeleton, q) -> str:
+    """``q1 = -10°, q2 = 30°, q3 = 0.25 m``."""
+    parts = []
+    for name, unit, value in zip(skeleton.coordinates, skeleton.units, q):
+        if unit == "rad":
+            parts.append(f"{name} = {math.degrees(value) + 0.0:.4g}°")
+        else:
+            parts.append(f"{name} = {value + 0.0:.4g} {unit}")
+    return ", ".join(parts)
+
+
+@dataclass
+class Drawing:
+    skeleton: Skeleton
+    q: np.ndarray
+    pose: Poses
+    initial: bool                        # the file's initial pose
+    timings: dict = field(default_factory=dict)
+
+    def title(self) -> str:
+        where = "initial pose" if self.initial else "pose"
+        return f"{self.skeleton.name}, {where}: {pose_text(self.skeleton, self.q)}"
+
+    def figure(self, labels: bool = True):
+        """The drawing as a Matplotlib Figure (the global backend is not touched)."""
+        return drawing.robot_figure(self.skeleton, self.pose, self.title(), labels=labels)
+
+
+def draw(frames: Frames, at=()) -> Drawing:
+    """The robot at its initial pose with ``at`` put in."""
+    q = parse_at(frames.skeleton, at)
+    return Drawing(frames.skeleton, q, frames(q), not at)
+
+
+def points(d: Drawing) -> dict:
+    """Every drawn point, body by body (show.json)."""
+    pose, sk = d.pose, d.skeleton
+    bodies = {}
+    for i, name in enumerate(sk.bodies):
+        bodies[name] = {"parent": sk.bodies[sk.parents[i]] if sk.parents[i] >= 0 else "ground",
+                        "joint_type": sk.joint_types[i],
+                        "displacement": sk.displacements[i],
+                        "joint": pose.joint[i].tolist(), "origin": pose.origin[i].tolist(),
+                        "axis": pose.axis[i].tolist(), "com": pose.com[i].tolist(),
+                        "link_end": [pose.joint[k].tolist() for k in sk.children(i)]
+                        or [pose.tip[i].tolist()],
+                        "R": pose.R[i].tolist()}
+    return bodies
+
+
+def write_drawing(d: Drawing, out: Path, plot_format: str = "png") -> list[Path]:
+    """show.png (or .svg, .pdf) and show.json in ``out``."""
+    out = output.prepare_dir(out)
+    with progress.task(f"drawing {d.skeleton.name}"):
+        start = time.perf_counter()
+        written = [plots.plot_path(out, "show", plot_format)]
+        plots.write_figure(written[0], d.figure())
+        d.timings["draw"] = time.perf_counter() - start
+    written.append(out / "show.json")
+    output.write_json(written[-1], {
+        "robot": d.skeleton.name, "initial_pose": d.initial,
+        "pose": dict(zip(d.skeleton.coordinates, d.q.tolist())),
+        "units": dict(zip(d.skeleton.coordinates, d.skeleton.units)),
+        "bodies": points(d), "timings": d.timings})
+    return written
+
+
+# -- animation -----------------------------------------------------------------------
+@dataclass
+class Plan:
+    """Which rows become frames and how fast they play."""
+    rows: np.ndarray          # indices into the run's rows
+    frame_ms: int             # display time of one frame
+    speed: float              # simulated seconds per real second
+
+    @property
+    def note(self) -> str:
+        return "" if abs(self.speed - 1) < 0.05 else f"  ({self.speed:.3g}x speed)"
+
+
+def plan(t: np.ndarray, max_frames: int = MAX_FRAMES) -> Plan:
+    """Frames evenly spaced in time over the run (real time when it fits)."""
+    span = float(t[-1] - t[0]) if len(t) > 1 else 0.0
+    if span <= 0:
+        return Plan(np.zeros(1, dtype=int), 1000, 1.0)
+    count = int(min(max_frames, len(t), math.floor(span * 1000 / MIN_FRAME_MS) + 1))
+    count = max(count, 2)
+    wanted = np.linspace(t[0], t[-1], count)
+    rows = np.unique(np.clip(np.searchsorted(t, wanted - 1e-12 * max(1.0, span)), 0,
+                             len(t) - 1))
+    playback = min(span, MAX_PLAYBACK)
+    frame_ms = max(MIN_FRAME_MS, int(round(playback * 1000 / (len(rows) - 1) / 10)) * 10)
+    speed = span / (frame_ms * (len(rows) - 1) / 1000)
+    return Plan(rows, frame_ms, speed)
+
+
+@dataclass
+class Animation:
+    skeleton: Skeleton
+    times: np.ndarray
+    plan: Plan
+    images: list                      # uint8 arrays, rows x columns x 3
+    title: str
+    timings: dict = field(default_factory=dict)
+
+
+def animate(frames: Frames, t: np.ndarray, q: np.ndarray, title: str,
+            max_frames: int = MAX_FRAMES, dpi: int = 80) -> Animation:
+    """Frames of the robot moving through ``q`` (rows x n) at times ``t``."""
+    start = time.perf_counter()
+    chosen = plan(t, max_frames)
+    poses = frames(q[chosen.rows])
+    box = drawing.Frame.around(poses)
+    movie = drawing.Animation(frames.skeleton, box, title, dpi=dpi)
+    images = []
+    with progress.task(f"drawing {len(chosen.rows)} frames of {frames.skeleton.name}",
+                       total=len(chosen.rows)) as step:
+        for j, k in enumerate(chosen.rows):
+            images.append(movie.frame(poses.at(j), float(t[k]), chosen.note))
+            step.advance()
+    return Animation(frames.skeleton, t[chosen.rows], chosen, images, title,
+                     {"frames": time.perf_counter() - start})
+
+
+def gif_bytes(animation: Animation) -> bytes:
+    """The frames as a looping GIF (one palette for all frames: no flicker)."""
+    from PIL import Image
+
+    first = Image.fromarray(animation.images[0]).quantize(colors=128,
+                                                          method=Image.Quantize.MEDIANCUT)
+    images = [first] + [Image.fromarray(a).quantize(palette=first, dither=Image.Dither.NONE)
+                        for a in animation.images[1:]]
+    buffer = io.BytesIO()
+    images[0].save(buffer, format="GIF", save_all=True, append_images=images[1:],
+                   duration=animation.plan.frame_ms, loop=0, disposal=1)
+    return buffer.getvalue()
+
+
+def mp4_writer() -> str | None:
+    """The ffmpeg executable, if there is one."""
+    return shutil.which("ffmpeg")
+
+
+def write_mp4(animation: Animation, path: Path, ffmpeg: str) -> None:
+    """The frames as H.264 MP4 through ffmpeg, written to a temporary file in the
+    same folder and renamed into place (whole or not at all)."""
+    height, width = animation.images[0].shape[:2]
+    fps = 1000.0 / animation.plan.frame_ms
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".mp4")
+    os.close(handle)
+    try:
+        command = [ffmpeg, "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "rgb24",
+                   "-s", f"{width}x{height}", "-r", f"{fps:.6g}", "-i", "-",
+                   "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p",
+                   "-c:v", "libx264", "-movflags", "+faststart", temporary]
+        data = b"".join(np.ascontiguousarray(a).tobytes() for a in animation.images)
+        done = subprocess.run(command, input=data, capture_output=True, timeout=600)
+        if done.returncode != 0 or not os.path.getsize(temporary):
+            message = done.stderr.decode(errors="replace").strip().splitlines()
+            raise OSError(f"ffmpeg failed: {message[-1] if message else done.returncode}")
+        os.chmod(temporary, output.file_mode())
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def write_animation(animation: Animation, out: Path, mp4: bool = True) -> tuple[list[Path], str]:
+    """animate.gif (+ animate.mp4 when ffmpeg is there) and animate.json; the second
+    value says what happened to the MP4."""
+    out = output.prepare_dir(out)
+    start = time.perf_counter()
+    with progress.task(f"writing animate.gif ({len(animation.images)} frames)"):
+        written = [out / "animate.gif"]
+        output.write_bytes(written[0], gif_bytes(animation))
+    mp4_note = "mp4: not asked for"
+    if mp4:
+        ffmpeg = mp4_writer()
+        if ffmpeg is None:
+            mp4_note = "mp4: no ffmpeg on the PATH, GIF only"
+        else:
+            try:
+                with progress.task("writing animate.mp4 (ffmpeg)"):
+                    write_mp4(animation, out / "animate.mp4", ffmpeg)
+                written.append(out / "animate.mp4")
+                mp4_note = "mp4: written by ffmpeg"
+            except (OSError, subprocess.SubprocessError) as err:
+                mp4_note = f"mp4: not written ({err})"
+    animation.timings["write"] = time.perf_counter() - start
+    written.append(out / "animate.json")
+    height, width = animation.images[0].shape[:2]
+    output.write_json(written[-1], {
+        "robot": animation.skeleton.name, "frames": len(animation.images),
+        "frame_ms": animation.plan.frame_ms, "speed": animation.plan.speed,
+        "t_first": float(animation.times[0]), "t_last": float(animation.times[-1]),
+        "width": width, "height": height, "mp4": mp4_note, "timings": animation.timings})
+    return written, mp4_note
