@@ -49,3 +49,15 @@ def test_malformed_yaml_is_one_line_and_exit_2(tmp_path, capsys):
 def test_unknown_method_is_a_usage_error(capsys):
     assert main(["equations", "robots/rr.yaml", "--formulation", "newton"]) == 2
     assert "newton" in capsys.readouterr().err
+
+
+def test_a_large_printout_says_its_size_first(monkeypatch, capsys):
+    import importlib
+
+    monkeypatch.setattr(importlib.import_module("anadyn_cli.commands.equations"),
+                        "LARGE_OUTPUT", 100)
+    assert main(["equations", "robots/rr.yaml"]) == 0
+    captured = capsys.readouterr()
+    size = len(captured.out.encode("utf-8")) - 1          # echo adds the final newline
+    assert captured.err == (f"anadyn: note: the equations of rr take {size / 1e6:.1f} MB "
+                            f"({captured.out.count(chr(10))} lines); redirect them to a file\n")

@@ -468,6 +468,7 @@ def test_native_kernels_match_generated_python(repo, tmp_path, monkeypatch, text
     from anadyn_cli.model.info import RobotInfo
     from anadyn_cli.numeric.model import NumericModel
     monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("ANADYN_NATIVE")          # conftest turns native code off elsewhere
     robot = {"rrt": lambda: load_robot(repo / "robots/rrt.yaml"),
              "chain6": lambda: load_robot(repo / "configs/chain6.yaml"),
              "random5": lambda: robot_from_text(random_robot_yaml(5), "r5.yaml"),

@@ -8,6 +8,10 @@ import typer
 from .common import Format, Formulation, RobotArg
 
 
+#: bytes of printout above which the size is said first (on stderr)
+LARGE_OUTPUT = 1_000_000
+
+
 def equations(
     robot: Path = RobotArg,
     formulation: Formulation = typer.Option(Formulation.kane, "--formulation",
@@ -61,4 +65,8 @@ def equations(
     if fmt.value == "latex":
         text = printout.latex_document(text, f"{model.name}: {formulation.value}, "
                                              f"{what} parameters")
+    size = len(text.encode("utf-8"))
+    if size > LARGE_OUTPUT:
+        typer.echo(f"anadyn: note: the equations of {model.name} take {size / 1e6:.1f} MB "
+                   f"({text.count(chr(10)) + 1} lines); redirect them to a file", err=True)
     typer.echo(text)

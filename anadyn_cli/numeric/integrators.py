@@ -200,6 +200,7 @@ def integrate(problem: Problem, x0: np.ndarray, grid: np.ndarray, method: str = 
                   f"switches between Adams and BDF itself")
         method = "odeint"
     counted = _Counted(problem, budget, seconds)
+    import scipy.integrate  # noqa: F401  imported before the clock starts, not inside a solve
     start = time.perf_counter()
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")          # failures are reported as data below

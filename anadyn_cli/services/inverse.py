@@ -520,7 +520,7 @@ def roundtrip_line(result: InverseResult) -> str:
     """Two lines: how the round trip was integrated, and its verdict."""
     trip = result.roundtrip
     if trip is None:
-        return "round trip: skipped (--no-roundtrip)"
+        return "round trip: skipped (not asked for)"
     if trip.segments == 1:
         how = (f"round trip: one run from the start state over {result.duration:g} s "
                f"(open-loop growth rate up to {trip.growth_rate:.3g} 1/s)")

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError
+from ..errors import SettingError
 from ..numeric.frames import Frames, Poses, Skeleton
 from .. import progress
 from ..output import drawing, plots
@@ -51,24 +51,24 @@ def parse_at(skeleton: Skeleton, items) -> np.ndarray:
             name, sign, text = part.partition("=")
             name, text = name.strip(), text.strip()
             if not sign or not name or not text:
-                raise ModelError(f"--at {part}: expected COORDINATE=VALUE, e.g. "
+                raise SettingError("at", f"{part}: expected COORDINATE=VALUE, e.g. "
                                  f"{names[0]}=0.5 or {names[0]}=30deg")
             if name not in names:
-                raise ModelError(f"--at {part}: unknown coordinate {name!r}; coordinates: "
+                raise SettingError("at", f"{part}: unknown coordinate {name!r}; coordinates: "
                                  f"{', '.join(names)}")
             i = names.index(name)
             degrees = text.endswith(DEGREE_SUFFIXES)
             if degrees:
                 if skeleton.units[i] != "rad":
-                    raise ModelError(f"--at {part}: {name} is a length in m; degrees apply "
+                    raise SettingError("at", f"{part}: {name} is a length in m; degrees apply "
                                      "to angles")
                 text = text[:-3] if text.endswith("deg") else text[:-1]
             try:
                 value = float(expressions.parse(text.strip(), {}))
             except (expressions.ExpressionError, TypeError, ValueError) as err:
-                raise ModelError(f"--at {part}: {err}") from None
+                raise SettingError("at", f"{part}: {err}") from None
             if not math.isfinite(value):
-                raise ModelError(f"--at {part}: not a finite number")
+                raise SettingError("at", f"{part}: not a finite number")
             q[i] = math.radians(value) if degrees else value
     return q
 

@@ -976,7 +976,8 @@ def write(result: SweepResult, out: Path, plot: bool = True) -> list[Path]:
         from .sweep_plot import figure
         from ..output import plots
 
-        written.append(plots.write_figure(out / "sweep.png", figure(result)))
+        written.append(plots.write_figure(out / "sweep.png", figure(result, capacity(result),
+                                                                      headline(result))))
     result.timings["write"] = time.perf_counter() - start
     written.append(out / "sweep.json")
     output.write_json(written[-1], summary(result))

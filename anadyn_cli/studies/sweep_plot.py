@@ -98,7 +98,8 @@ def _bounds(result, column: str):
     return found
 
 
-def figure(result):
+def figure(result, capacity: dict | None, headline: list[str]):
+    """sweep.png's Figure; ``capacity`` and ``headline`` as ``sweep`` computes them."""
     from matplotlib.figure import Figure
 
     plan = result.plan
@@ -107,10 +108,11 @@ def figure(result):
              f"{', '.join(plan.design.names)} ({len(result.rows)} samples, "
              f"{result.counts['ok']} ok)")
     if len(names) <= 1 and not any(s.random for s in plan.design.specs):
-        return _lines(result, names[0] if names else plan.design.names[0], title, Figure)
+        return _lines(result, names[0] if names else plan.design.names[0], title, Figure,
+                      capacity)
     if len(names) == 2:
-        return _heat_maps(result, names, title, Figure)
-    return _histograms(result, title, Figure)
+        return _heat_maps(result, names, title, Figure, headline[:MAX_PANELS])
+    return _histograms(result, title, Figure, headline[:MAX_PANELS])
 
 
 def _layout(count: int) -> tuple[int, int]:
@@ -118,7 +120,7 @@ def _layout(count: int) -> tuple[int, int]:
     return math.ceil(count / columns), columns
 
 
-def _lines(result, name: str, title: str, Figure):
+def _lines(result, name: str, title: str, Figure, cap: dict | None):
     panels = _groups(result)
     rows, columns = _layout(len(panels))
     figure = Figure(figsize=(7.5 if columns == 1 else 4.6 * columns, min(10.5, 2.1 * rows + 0.8)),
@@ -127,9 +129,6 @@ def _lines(result, name: str, title: str, Figure):
     x = np.array([r[name] for r in result.rows])
     order = np.argsort(x, kind="stable")
     bad = x[[r["status"] != "ok" for r in result.rows]]
-    from .sweep import capacity
-
-    cap = capacity(result)
     edge = cap.get("contiguous_to") if cap else None
     for k, ax in enumerate(axes.flat):
         if k >= len(panels):
@@ -166,15 +165,8 @@ def _lines(result, name: str, title: str, Figure):
     return figure
 
 
-def _headline(result) -> list[str]:
-    from .sweep import headline
-
-    return headline(result)[:MAX_PANELS]
-
-
-def _heat_maps(result, names: list[str], title: str, Figure):
+def _heat_maps(result, names: list[str], title: str, Figure, columns: list[str]):
     plan = result.plan
-    columns = _headline(result)
     rows_, cols_ = _layout(len(columns))
     figure = Figure(figsize=(4.8 * cols_, min(10.5, 3.4 * rows_ + 0.8)), layout="constrained")
     axes = figure.subplots(rows_, cols_, squeeze=False)
@@ -223,8 +215,7 @@ def _edges(values: list[float]) -> np.ndarray:
                            [v[-1] + (v[-1] - middle[-1])]])
 
 
-def _histograms(result, title: str, Figure):
-    columns = _headline(result)
+def _histograms(result, title: str, Figure, columns: list[str]):
     rows_, cols_ = _layout(len(columns))
     figure = Figure(figsize=(4.6 * cols_ if cols_ > 1 else 7.5, min(10.5, 2.3 * rows_ + 0.8)),
                     layout="constrained")
