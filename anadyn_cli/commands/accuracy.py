@@ -8,7 +8,7 @@ import typer
 
 from ..errors import ModelError
 from .common import (Formulation, FormulationOpt, OutOpt, PlotFormat, PlotFormatOpt, RobotArg,
-                     out_dir)
+                     TEndOpt, out_dir)
 
 
 def accuracy(
@@ -24,8 +24,7 @@ def accuracy(
                                   "skipped."),
     reference_calls: int = typer.Option(500000, "--reference-calls",
                                         help="RHS-call budget per reference attempt."),
-    t_end: float = typer.Option(None, "--t-end", help="Horizon in s [default: from the "
-                                                      "file, else 10]."),
+    t_end: float = TEndOpt,
     dt: float = typer.Option(None, "--dt", help="Output step in s (the error grid) "
                                                 "[default: from the file, else 0.01]."),
     formulation: Formulation = FormulationOpt,

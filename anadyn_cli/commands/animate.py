@@ -5,8 +5,8 @@ from pathlib import Path
 
 import typer
 
-from .common import (Formulation, FormulationOpt, OutOpt, RobotArg, integrator_name, out_dir,
-                     time_line)
+from .common import (Formulation, FormulationOpt, OutOpt, RobotArg, TEndOpt, integrator_name,
+                     out_dir, time_line)
 
 
 def animate(
@@ -15,8 +15,7 @@ def animate(
     method: str = typer.Option(None, help="Integrator (any case): auto, odeint, RK45, RK23, "
                                           "DOP853, Radau, BDF, LSODA [default: from the file, "
                                           "else auto]."),
-    t_end: float = typer.Option(None, "--t-end", help="Horizon in s [default: from the "
-                                                      "file, else 10]."),
+    t_end: float = TEndOpt,
     dt: float = typer.Option(None, "--dt", help="Output step in s [default: from the file, "
                                                 "else 0.01]."),
     frames: int = typer.Option(150, "--frames", help="Most frames in the animation."),

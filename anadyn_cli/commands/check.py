@@ -5,17 +5,15 @@ from pathlib import Path
 
 import typer
 
-from .common import FormulationOpt, Formulation, OutOpt, RobotArg, out_dir, time_line
+from .common import (AtolOpt, Formulation, FormulationOpt, OutOpt, RobotArg, RtolOpt, TEndOpt,
+                     out_dir, time_line)
 
 
 def check(
     robot: Path = RobotArg,
-    rtol: float = typer.Option(None, help="Relative tolerance [default: from the file, "
-                                          "else 1e-10]."),
-    atol: float = typer.Option(None, help="Absolute tolerance [default: from the file, "
-                                          "else 1e-12]."),
-    t_end: float = typer.Option(None, "--t-end", help="Horizon in s [default: from the "
-                                                      "file, else 10]."),
+    rtol: float = RtolOpt,
+    atol: float = AtolOpt,
+    t_end: float = TEndOpt,
     dt: float = typer.Option(None, "--dt", help="Output step in s [default: from the file, "
                                                 "else 0.01]."),
     max_condition: float = typer.Option(1e8, "--max-condition",

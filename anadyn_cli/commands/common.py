@@ -70,6 +70,10 @@ def out_dir(out: Path | None, robot_name: str) -> Path:
     return out if out is not None else Path("results") / robot_name
 
 
+RtolOpt = typer.Option(None, help="Relative tolerance [default: from the file, else 1e-10].")
+AtolOpt = typer.Option(None, help="Absolute tolerance [default: from the file, else 1e-12].")
+TEndOpt = typer.Option(None, "--t-end", help="Horizon in s [default: from the file, else 10].")
+
 FormulationOpt = typer.Option(Formulation.kane, "--formulation", case_sensitive=False,
                               help="Formulation to integrate.")
 

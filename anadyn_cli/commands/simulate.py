@@ -5,8 +5,8 @@ from pathlib import Path
 
 import typer
 
-from .common import (Formulation, FormulationOpt, OutOpt, PlotFormat, PlotFormatOpt, RobotArg,
-                     integrator_name, out_dir, time_line)
+from .common import (AtolOpt, Formulation, FormulationOpt, OutOpt, PlotFormat, PlotFormatOpt,
+                     RobotArg, RtolOpt, TEndOpt, integrator_name, out_dir, time_line)
 
 
 def simulate(
@@ -15,10 +15,9 @@ def simulate(
     method: str = typer.Option(None, help="Integrator (any case): auto, odeint, RK45, RK23, "
                                           "DOP853, Radau, BDF, LSODA [default: from the file, "
                                           "else auto]."),
-    rtol: float = typer.Option(None, help="Relative tolerance [default: 1e-10]."),
-    atol: float = typer.Option(None, help="Absolute tolerance [default: 1e-12]."),
-    t_end: float = typer.Option(None, "--t-end", help="Horizon in s [default: from the "
-                                                      "file, else 10]."),
+    rtol: float = RtolOpt,
+    atol: float = AtolOpt,
+    t_end: float = TEndOpt,
     dt: float = typer.Option(None, "--dt", help="Output step in s [default: from the file, "
                                                 "else 0.01]."),
     out: Path = OutOpt,

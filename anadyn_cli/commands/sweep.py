@@ -6,7 +6,8 @@ from typing import List
 
 import typer
 
-from .common import FormulationOpt, Formulation, OutOpt, RobotArg, out_dir, time_line
+from .common import (AtolOpt, Formulation, FormulationOpt, OutOpt, RobotArg, RtolOpt, TEndOpt,
+                     out_dir, time_line)
 
 
 def sweep(
@@ -37,12 +38,9 @@ def sweep(
     formulation: Formulation = FormulationOpt,
     method: str = typer.Option(None, help="Integrator (simulate) [default: from the file, "
                                           "else auto]."),
-    rtol: float = typer.Option(None, help="Relative tolerance [default: from the file, "
-                                          "else 1e-10]."),
-    atol: float = typer.Option(None, help="Absolute tolerance [default: from the file, "
-                                          "else 1e-12]."),
-    t_end: float = typer.Option(None, "--t-end", help="Horizon in s [default: from the "
-                                                      "file, else 10]."),
+    rtol: float = RtolOpt,
+    atol: float = AtolOpt,
+    t_end: float = TEndOpt,
     dt: float = typer.Option(None, "--dt", help="Output step in s, the grid the metrics are "
                                                 "taken on [default: from the file, else 0.01]."),
     settle_band: float = typer.Option(0.02, "--settle-band",
