@@ -29,14 +29,16 @@ def _cache_key(formulation: str, eom) -> str:
 
 
 def numeric_model(robot, formulation: str = "kane", use_cache: bool = False,
-                  timings: dict | None = None, eom=None) -> NumericModel:
+                  timings: dict | None = None, eom=None, jacobian: bool = True) -> NumericModel:
     """The numeric model of ``robot`` (a path or a validated ``Robot``) by
     ``formulation``; ``eom``: the robot's equations, when the caller has them.
 
     "kane" (the default) and "recursive" without ``eom`` build the recursive
     path: Kane's equations evaluated by Newton-Euler recursions, O(n) code,
     native C when cached (``numeric.native``); closed chains and "lagrange"
-    (or a given ``eom``) build the closed forms."""
+    (or a given ``eom``) build the closed forms, with the analytic Jacobian
+    unless ``jacobian`` is off (then never cached: every cached model has it)."""
+    use_cache = use_cache and jacobian
     timings = {} if timings is None else timings
     if isinstance(robot, (str, Path)):
         return _from_path(robot, formulation, use_cache, timings)
@@ -59,7 +61,7 @@ def numeric_model(robot, formulation: str = "kane", use_cache: bool = False,
         eom = derive(robot, formulation)
         timings["derive"] = time.perf_counter() - start
     start = time.perf_counter()
-    code = closed_form.source(robot, eom) + trajectory.motion_source(robot)
+    code = closed_form.source(robot, eom, jacobian) + trajectory.motion_source(robot)
     if robot.constraints is not None:               # closed chains (numeric.constrained)
         code += constrained.source(robot, eom)
     info = RobotInfo.from_robot(robot)

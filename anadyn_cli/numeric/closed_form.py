@@ -101,21 +101,19 @@ def state_partials(M: sp.Matrix, G: sp.Matrix, q: list, dq: list, ddq: list) -> 
     return K
 
 
-def source(robot: Robot, eom: EquationsOfMotion) -> str:
-    """Python source of the numeric functions for ``robot``'s equations."""
+def source(robot: Robot, eom: EquationsOfMotion, jacobian: bool = True) -> str:
+    """Python source of the numeric functions for ``robot``'s equations (without
+    ``dynamics_jacobian`` unless ``jacobian``: its cse is most of the work)."""
     t = sp.Symbol("t", real=True)
     q, dq, ddq = list(eom.q), list(eom.dq), list(eom.ddq)
     tau = control_laws(robot)
     G = sp.Matrix(eom.F + eom.B * tau)
     M = sp.Matrix(eom.M)
-    K = state_partials(M, G, q, dq, ddq)
     kin = kinematics.build(robot, symbolic=eom.symbolic)
     springs = forces.spring_energy(robot, kin)
     potential = kinematics.potential_energy(kin) + springs
     state = (t, *q, *dq)
     functions = [
-        Function("dynamics_jacobian", (*state, *ddq), (("M", M), ("K", K)), False,
-                 "M and K = [dG/dq - (dM/dq) ddq | dG/d(dq)]; d(ddq)/dx = M^-1 K."),
         Function("efforts", state, (("tau", list(tau)),), True,
                  "Actuator efforts under the control laws."),
         Function("mfb", state, (("M", M), ("F", list(eom.F)), ("B", eom.B)), True,
@@ -125,6 +123,11 @@ def source(robot: Robot, eom: EquationsOfMotion) -> str:
                  "Potential energy of gravity and the joint springs, "
                  "V = -sum m g . r + sum k/2 (theta - rest)^2."),
     ]
+    if jacobian:
+        K = state_partials(M, G, q, dq, ddq)
+        functions.insert(0, Function(
+            "dynamics_jacobian", (*state, *ddq), (("M", M), ("K", K)), False,
+            "M and K = [dG/dq - (dM/dq) ddq | dG/d(dq)]; d(ddq)/dx = M^-1 K."))
     power = powers(robot, kin)
     if power is not None:
         functions.append(Function("powers", state, (("P", power),), True,

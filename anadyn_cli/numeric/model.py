@@ -43,7 +43,7 @@ class NumericModel:
         self.effort_names: tuple[str, ...] = namespace["EFFORTS"]
         self.n = len(self.coordinates)
         self._accelerations = namespace["accelerations"]
-        self._jacobian = namespace["dynamics_jacobian"]
+        self._jacobian = namespace.get("dynamics_jacobian")     # None: not generated
         self._efforts = namespace["efforts"]
         self._mfb = namespace["mfb"]
         self._potential = namespace["potential"]
@@ -78,7 +78,8 @@ class NumericModel:
 
     def problem(self) -> Problem:
         """The direct dynamics under the control laws, for ``integrators.integrate``."""
-        return Problem(self.rhs, self.jacobian, self.state_names(), self.diagnose)
+        jacobian = self.jacobian if self._jacobian is not None else None
+        return Problem(self.rhs, jacobian, self.state_names(), self.diagnose)
 
     def accelerations(self, t: float, x) -> list[float]:
         """ddq solving M ddq = G at one state (numpy.linalg.LinAlgError if M is singular)."""
