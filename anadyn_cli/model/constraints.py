@@ -135,10 +135,6 @@ class Constraints:
     def count(self) -> int:
         return self.holonomic + len(self.velocities)
 
-    @property
-    def nonholonomic(self) -> bool:
-        return bool(self.velocities)
-
 
 # ----------------------------------------------------------------------------
 # reading the file

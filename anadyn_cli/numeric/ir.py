@@ -438,12 +438,6 @@ class _PyPrinter:
         self.sympy = (NumPyPrinter({"fully_qualified_modules": True}) if vectorized
                       else PythonCodePrinter({"fully_qualified_modules": True}))
 
-    def expr(self, value: Ex) -> str:
-        c = value.constant()
-        if c is not None:
-            return _number(c)
-        return python_sum(value.terms)
-
     def statements(self, statements: list[Statement], indent: str = "    ") -> list[str]:
         lines = []
         for s in statements:

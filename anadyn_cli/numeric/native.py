@@ -452,18 +452,6 @@ def _lowest_priority() -> None:
         pass
 
 
-def wait_for_build(c_text: str, timeout: float = 1800.0) -> bool:
-    """Wait until no background build of ``c_text`` runs; True if its library exists."""
-    import time
-
-    path = library_path(c_text)
-    marker = path.with_name(module_name(c_text) + ".building")
-    deadline = time.time() + timeout
-    while marker.exists() and time.time() < deadline:
-        time.sleep(0.05)
-    return path.exists()
-
-
 def load(c_text: str, timings: dict | None = None, how: str | None = None):
     """(module, note): the library built from ``c_text`` if cached; else, by
     ``how`` ("auto", "wait", "off"; default ``mode()``), build it in the background

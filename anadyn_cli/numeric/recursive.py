@@ -308,7 +308,6 @@ class Tracer:
         self.t = Ex.atom("_t")
         self._frames = None
         self._joint = None
-        self._Jrow = None
 
     # joint maps --------------------------------------------------------------
     def joint_maps(self):

@@ -57,23 +57,6 @@ class ConstrainedEquations:
     reduced: EquationsOfMotion                         # M_r du = F_r + B_r tau
 
 
-def derive_tree_and_constraints(robot: Robot, method: str, symbolic: bool = False,
-                                tidy: bool = True):
-    """(tree equations, constraint equations) of ``robot``."""
-    from . import derive
-
-    tree = derive(robot, method, symbolic=symbolic, tidy=tidy)
-    kin = kinematics.build(robot, symbolic=symbolic)
-    return tree, constraint_equations.build(robot, kin)
-
-
-def derive_constrained(robot: Robot, method: str = "kane", symbolic: bool = False,
-                       tidy: bool = True) -> ConstrainedEquations:
-    """The reduced equations of ``robot`` by ``method`` (see the module docstring)."""
-    tree, cons = derive_tree_and_constraints(robot, method, symbolic, tidy)
-    return reduce(robot, tree, cons, method)
-
-
 def reduced_equations(robot: Robot, tree: EquationsOfMotion, method: str) -> ConstrainedEquations:
     """Reduce equations the caller has already derived (same parameters as ``tree``)."""
     kin = kinematics.build(robot, symbolic=tree.symbolic)
