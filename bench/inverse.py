@@ -1,41 +1,47 @@
-"""Benchmark: inverse dynamics over a time grid, vectorized against a per-point loop.
+"""Inverse dynamics over many points: anadyn's recursive path against Pinocchio's RNEA.
 
-    python bench/inverse.py [--robot robots/rrt.yaml] [--points 100000] [--repeats 5]
+    python bench/inverse.py [--robots chain6 chain12 tree30 arm7] [--points 20000]
+                            [--repeats 3]
 
-Both paths use the same compiled functions: the trajectory's generated
-``motion(t) -> q, dq, ddq`` and the robot's generated ``mfb(t, q, dq) -> M, F, B``,
-then tau = B^-1 (M ddq - F).
+Robots from ``bench/scale_robots.py`` (anadyn YAML and URDF with the same
+numbers); ``points`` random states (q, dq, ddq).  For each robot, in one run:
 
-  vectorized   one call of each over the whole grid, one batched solve
-               (``InverseDynamics.efforts``, what ``anadyn inverse`` runs)
-  loop         a Python loop calling the same functions on one time point at a
-               time (scalars in, small arrays out) and numpy.linalg.solve
+  rnea        tau = B^-1 (M ddq - F) with M ddq - F by the generated recursive
+              Newton-Euler algorithm and B alone (``NumericModel.demand``:
+              what ``anadyn inverse`` runs), vectorized over the points
+  mfb         the same efforts from the full M, F, B (what ``inverse`` ran
+              before: O(n^2) a point for M)
+  pinocchio   ``pin.rnea`` called once per point from Python (what a user
+              would write), with its own load time excluded
 
-Each is timed as the minimum of ``--repeats`` runs (the machine is noisy);
-points/s and their ratio come from the same run.  The two results must agree
-to 1e-12 relative, or the script exits 1.  For scale: Pinocchio's RNEA called
-once per point from Python manages about 3-5 x 10^5 points/s on these machines.
+Times are the minimum of ``--repeats`` runs (the machine is noisy), printed as
+microseconds per point and as ratios against Pinocchio from the same run;
+operation counts (multiplications + additions) of the generated functions
+beside them.  The efforts must agree with Pinocchio's to 1e-9 relative, or the
+script exits 1.
 """
 from __future__ import annotations
 
 import argparse
-import platform
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent))
 
-from anadyn_cli import load_robot                      # noqa: E402
-from anadyn_cli.numeric.build import numeric_model             # noqa: E402
-from anadyn_cli.services.inverse import InverseDynamics         # noqa: E402
-from anadyn_cli.numeric.trajectory import motion               # noqa: E402
+import scale_robots as sr  # noqa: E402
+
+SPECS = {"chain6": lambda: sr.chain(6), "chain12": lambda: sr.chain(12),
+         "chain24": lambda: sr.chain(24), "tree30": sr.tree, "arm7": sr.arm7,
+         "panda": sr.panda}
 
 
-def best_of(repeats: int, run) -> tuple[float, object]:
+def best_of(repeats: int, run):
     best, value = float("inf"), None
     for _ in range(repeats):
         start = time.perf_counter()
@@ -44,62 +50,86 @@ def best_of(repeats: int, run) -> tuple[float, object]:
     return best, value
 
 
-def loop(dynamics: InverseDynamics, t: np.ndarray) -> np.ndarray:
-    """The per-point baseline: the same generated functions, one time at a time."""
-    prescribed, mfb = dynamics.motion, dynamics.compiled.mfb
-    out = np.empty((len(t), dynamics.m))
-    for k, moment in enumerate(t.tolist()):
-        q, dq, ddq = prescribed(moment)
-        M, F, B = mfb(moment, q, dq)
-        out[k] = np.linalg.solve(B, M @ ddq - F)
-    return out
+def measure(spec: sr.Spec, folder: Path, points: int, repeats: int) -> dict:
+    import pinocchio as pin
+    from anadyn_cli import robot_from_text
+    from anadyn_cli.numeric import recursive
+    from anadyn_cli.numeric.build import numeric_model
+
+    urdf = folder / f"{spec.name}.urdf"
+    urdf.write_text(sr.to_urdf(spec))
+    robot = robot_from_text(sr.to_yaml(spec), f"{spec.name}.yaml")
+    model = numeric_model(robot)                       # the recursive path, as the CLI
+    gen = recursive.generate(robot)
+    n = model.n
+    rng = np.random.default_rng(1)
+    q, dq, ddq = (rng.uniform(-1, 1, (points, n)) for _ in range(3))
+
+    def rnea():
+        demand, B = model.demand(0.0, q.T, dq.T, ddq.T)
+        return np.linalg.solve(B, demand[..., None])[..., 0]
+
+    def mfb():
+        M, F, B = model.mfb(0.0, q.T, dq.T)
+        demand = np.einsum("kij,kj->ki", M, ddq) - F
+        return np.linalg.solve(B, demand[..., None])[..., 0]
+
+    pmodel = pin.buildModelFromUrdf(str(urdf))
+    pmodel.gravity.linear = np.array(spec.gravity)
+    data = pmodel.createData()
+    order = np.array([pmodel.joints[pmodel.getJointId(f"j_{link.name}")].idx_v
+                      for link in spec.links])            # anadyn's k -> Pinocchio's index
+    place = np.empty(n, dtype=int)
+    place[order] = np.arange(n)
+    pq, pdq, pddq = (np.ascontiguousarray(v[:, place]) for v in (q, dq, ddq))
+
+    def pinocchio():
+        out = np.empty((points, n))
+        for k in range(points):
+            out[k] = pin.rnea(pmodel, data, pq[k], pdq[k], pddq[k])
+        return out[:, order]
+
+    row = {"name": spec.name, "n": n}
+    row["rnea_s"], tau = best_of(repeats, rnea)
+    row["mfb_s"], tau_mfb = best_of(repeats, mfb)
+    row["pin_s"], tau_pin = best_of(repeats, pinocchio)
+    scale = max(np.abs(tau_pin).max(), 1e-300)
+    row["error"] = float(np.abs(tau - tau_pin).max() / scale)
+    row["error_mfb"] = float(np.abs(tau_mfb - tau_pin).max() / scale)
+    for name in ("inverse_dynamics", "mfb"):
+        c = gen.counts(name)
+        row[f"ops_{name}"] = c.mul + c.add
+    return row
 
 
-def main() -> int:
+def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--robot", default=str(ROOT / "robots" / "rrt.yaml"))
-    parser.add_argument("--formulation", default="kane", choices=("kane", "lagrange"))
-    parser.add_argument("--points", type=int, default=100_000)
-    parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--loop-repeats", type=int, default=3)
-    args = parser.parse_args()
-
-    robot = load_robot(args.robot)
-    compiled = numeric_model(robot, args.formulation)
-    dynamics = InverseDynamics(compiled, motion(robot))
-    duration = float(robot.trajectory.duration)
-    t = np.linspace(0.0, duration, args.points)
-    print(f"robot {robot.name} ({args.formulation}): n = {dynamics.n} coordinates, "
-          f"m = {dynamics.m} actuators, {robot.trajectory.kind} motion over {duration:g} s, "
-          f"{args.points} time points")
-    print(f"python {platform.python_version()}, numpy {np.__version__}, "
-          f"{platform.machine()}; minimum of {args.repeats} (vectorized) and "
-          f"{args.loop_repeats} (loop) runs")
-
-    dynamics.efforts(t[:10])                                   # warm up
-    vector_time, result = best_of(args.repeats, lambda: dynamics.efforts(t))
-    tau = result[3]
-    parts = {}
-    parts["motion"], (q, dq, ddq) = best_of(args.repeats, lambda: dynamics.motion(t))
-    parts["mfb"], (M, F, B) = best_of(args.repeats, lambda: dynamics.matrices(t, q, dq))
-    parts["solve"], _ = best_of(args.repeats, lambda: dynamics.solve(M, F, B, ddq))
-    loop_time, looped = best_of(args.loop_repeats, lambda: loop(dynamics, t))
-
-    scale = np.abs(tau).max(axis=0)
-    worst = float((np.abs(tau - looped) / scale).max())
-    vector_rate, loop_rate = args.points / vector_time, args.points / loop_time
-    print()
-    print(f"{'path':<12}{'calls of mfb':>14}{'time (s)':>12}{'points/s':>14}{'us/point':>11}")
-    print(f"{'vectorized':<12}{1:>14}{vector_time:>12.4f}{vector_rate:>14.3e}"
-          f"{1e6 / vector_rate:>11.3f}")
-    print(f"{'loop':<12}{args.points:>14}{loop_time:>12.4f}{loop_rate:>14.3e}"
-          f"{1e6 / loop_rate:>11.3f}")
-    print()
-    print(f"vectorized / loop: {vector_rate / loop_rate:.1f}x; target >= 1e6 points/s: "
-          f"{'met' if vector_rate >= 1e6 else 'NOT met'}")
-    print("vectorized split: " + ", ".join(f"{k} {v * 1e3:.1f} ms" for k, v in parts.items()))
-    print(f"largest difference between the paths: {worst:.2e} (relative to each effort's range)")
-    return 0 if worst <= 1e-12 else 1
+    parser.add_argument("--robots", nargs="*", default=["chain6", "chain12", "tree30", "arm7", "panda"],
+                        choices=sorted(SPECS))
+    parser.add_argument("--points", type=int, default=20_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args(argv)
+    try:
+        import pinocchio  # noqa: F401
+    except ImportError:
+        print("bench/inverse.py needs Pinocchio (pip install pin)")
+        return 2
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="anadyn-inverse-") as tmp:
+        for name in args.robots:
+            rows.append(measure(SPECS[name](), Path(tmp), args.points, args.repeats))
+    print(f"{args.points} random states a robot; us per point (minimum of {args.repeats} runs); "
+          "ratio = anadyn / Pinocchio (< 1: anadyn faster)")
+    print(f"{'robot':>8} {'n':>3} {'rnea us':>8} {'mfb us':>8} {'pin us':>8} {'rnea/pin':>9} "
+          f"{'mfb/pin':>8} {'ops ID':>7} {'ops mfb':>8} {'|tau - pin|':>12}")
+    ok = True
+    for r in rows:
+        us = {k: r[f"{k}_s"] / args.points * 1e6 for k in ("rnea", "mfb", "pin")}
+        print(f"{r['name']:>8} {r['n']:>3} {us['rnea']:8.3f} {us['mfb']:8.3f} {us['pin']:8.3f} "
+              f"{us['rnea'] / us['pin']:9.2f} {us['mfb'] / us['pin']:8.2f} "
+              f"{r['ops_inverse_dynamics']:>7} {r['ops_mfb']:>8} {r['error']:12.1e}")
+        ok = ok and r["error"] <= 1e-9 and r["error_mfb"] <= 1e-9
+    return 0 if ok else 1
 
 
 if __name__ == "__main__":

@@ -4,7 +4,8 @@
 
 Robots (``bench/scale_robots.py``, each written as anadyn YAML and as URDF
 with the same numbers): spatial chains of n = 2..16 and 24 links, a branched
-tree of 30 joints, a 7-joint arm with full inertia tensors.  For each:
+tree of 30 joints, a 7-joint arm with full inertia tensors (Panda-like) and the
+Panda's own arm (its URDF's seven joints and links).  For each:
 
 - generation: YAML validation + tracing + writing the Python and C sources
   (s), and the C compile (s, once per robot: cached beside the derivation);
@@ -340,7 +341,7 @@ def main(argv=None) -> int:
         pin_available = False
         print("pinocchio not installed: anadyn figures only")
     specs = [sr.chain(n) for n in (QUICK_CHAINS if args.quick else CHAINS)]
-    specs += [sr.arm7()] + ([] if args.quick else [sr.tree()])
+    specs += [sr.arm7(), sr.panda()] + ([] if args.quick else [sr.tree()])
     if args.only:
         specs = [s for s in specs if s.name in args.only]
     rows = []

@@ -8,12 +8,17 @@ anadyn YAML file and as a URDF file for Pinocchio (the same numbers).
   ``depth`` joints each (2 + branches*depth joints; 4 x 7 gives 30), axes
   cycling z, y, x, full (rotated) inertia tensors;
 - ``arm7()``: a 7-joint arm with rpy between links and full inertia
-  tensors (Panda-like proportions; used when no Panda URDF can be imported).
+  tensors (Panda-like proportions);
+- ``panda()``: the Franka Panda's seven arm joints and links as its URDF in
+  tests/data/urdf gives them (frames, masses, centres of mass, full inertia
+  tensors); the hand and fingers after the last joint are left off.
 """
 from __future__ import annotations
 
 import math
+import xml.etree.ElementTree as ET  # noqa: S405  (the project's own test file)
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -172,3 +177,33 @@ def arm7() -> Spec:
             inertia=_full_inertia(m, (0.1, 0.12, 0.2), (0.4 * i, 0.3, 0.2 * i)),
             initial=0.3 * math.sin(i + 0.3), target=0.4 * math.cos(i), gains=(5.0, 80.0)))
     return Spec("arm7", links)
+
+
+PANDA = Path(__file__).resolve().parents[1] / "tests" / "data" / "urdf" / "panda.urdf"
+
+
+def _floats(text: str | None, default=(0.0, 0.0, 0.0)) -> tuple:
+    return tuple(float(v) for v in text.split()) if text else default
+
+
+def panda(path: Path = PANDA) -> Spec:
+    """The Panda's arm from its URDF: joints panda_joint1..7 and their child links."""
+    root = ET.parse(path).getroot()
+    inertials = {link.get("name"): link.find("inertial") for link in root.findall("link")}
+    links = []
+    for i in range(7):
+        joint = root.find(f"joint[@name='panda_joint{i + 1}']")
+        origin, inertial = joint.find("origin"), inertials[joint.find("child").get("link")]
+        com = inertial.find("origin")
+        assert _floats(com.get("rpy")) == (0.0, 0.0, 0.0)      # inertia in the link frame
+        t = inertial.find("inertia").attrib
+        inertia = np.array([[float(t["ixx"]), float(t["ixy"]), float(t["ixz"])],
+                            [float(t["ixy"]), float(t["iyy"]), float(t["iyz"])],
+                            [float(t["ixz"]), float(t["iyz"]), float(t["izz"])]])
+        links.append(Link(
+            name=f"p{i + 1}", parent="ground" if i == 0 else f"p{i}",
+            axis=_floats(joint.find("axis").get("xyz")), origin=_floats(origin.get("xyz")),
+            rpy=_floats(origin.get("rpy")), mass=float(inertial.find("mass").get("value")),
+            com=_floats(com.get("xyz")), inertia=inertia,
+            initial=0.3 * math.sin(i + 0.3), target=0.4 * math.cos(i), gains=(5.0, 80.0)))
+    return Spec("panda", links)

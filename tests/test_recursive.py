@@ -591,9 +591,37 @@ def test_the_cheaper_forward_dynamics_is_picked():
 
 
 @needs_compiler
+@pytest.mark.parametrize("text_of", ["random5", "chain16"])
+def test_the_quick_build_gives_the_bits_of_the_python(text_of, tmp_path, monkeypatch):
+    """The forward dynamics alone (CRBA + Cholesky on random5, the articulated-body
+    algorithm on chain16), unoptimized: no Jacobian in the module, and the RHS of
+    the generated Python to the bit."""
+    monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path))
+    text = random_robot_yaml(5) if text_of == "random5" else chain_text(16)
+    robot = robot_from_text(text, f"{text_of}.yaml")
+    forward = recursive.forward(recursive.plan(robot))
+    c_text = native.c_source(forward)
+    assert "anadyn_jac" not in c_text and native.flags(c_text) == native.QUICK_FLAGS
+    module, why = native.build(c_text)
+    assert module is not None, why
+    assert not hasattr(module, "jac")
+    from anadyn_cli.model.info import RobotInfo
+    python = native.RecursiveModel(RobotInfo.from_robot(robot),
+                                   recursive.module_source(recursive.complete(forward)))
+    n = python.n
+    for t, q, dq, _ in states(n, 4, 11):
+        x = np.concatenate([q, dq])
+        out = np.empty(2 * n)
+        if module.rhs(t, x, out) == 0:
+            assert np.array_equal(out, python.rhs(t, x))
+
+
+@needs_compiler
 def test_a_cache_miss_builds_the_library_in_the_background(tmp_path, monkeypatch, repo):
-    """First run: generated Python, the compiler started for next time; once it is
-    done, the library sits beside the derivation cache and the next run uses it."""
+    """First run: generated Python; the forward dynamics alone compiled quickly
+    (the run's RHS switches to them once built, with the same bits) and the full
+    library for next time; once done, both sit beside the derivation cache and
+    the next run uses the full one."""
     from anadyn_cli.numeric.build import numeric_model
     monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "anadyn"))
     monkeypatch.delenv("ANADYN_NATIVE", raising=False)
@@ -605,12 +633,19 @@ def test_a_cache_miss_builds_the_library_in_the_background(tmp_path, monkeypatch
     deadline = time.time() + 300                 # a bound, not a timing
     while any(libraries.glob("*.building")) and time.time() < deadline:
         time.sleep(0.05)
-    assert len(list(libraries.glob("*.so"))) == 1
+    assert len(list(libraries.glob("*.so"))) == 2          # quick and full
+    x = first.initial_state()
+    python = native.RecursiveModel(first.info, first.full_source)
+    time.sleep(2 * native.QuickBuild.POLL)
+    swapped = first.rhs(0.3, x)
+    assert first.native_note.startswith("native C (compiled during the run")
+    assert np.array_equal(swapped, python.rhs(0.3, x))
     second = numeric_model(repo / "robots/rrt.yaml", use_cache=True)
     assert isinstance(second, native.NativeModel) and second.native_note == "native C (cached)"
-    x = second.initial_state()
-    assert np.array_equal(second.rhs(0.3, x), first.rhs(0.3, x))
+    assert np.array_equal(second.rhs(0.3, x), swapped)
     assert np.array_equal(second.jacobian(0.3, x), first.jacobian(0.3, x))
+    third = numeric_model(repo / "robots/rrt.yaml", use_cache=True, timings=(timings := {}))
+    assert timings["cache"] == "hit" and isinstance(third, native.NativeModel)
 
 
 def test_non_smooth_control_laws(repo, tmp_path, monkeypatch):

@@ -57,6 +57,7 @@ class Oracle:
                 body["joint"].pop("friction", None)
         self.robot = robot_from_text(yaml.safe_dump(data, sort_keys=False), str(path))
         self.mfb = _anadyn_mfb(self.robot, method)
+        self.demand = _anadyn_demand(self.robot) if method == "recursive" else None
         self.model = pin.buildModelFromUrdf(str(path))
         self.data = self.model.createData()
         self.theta, self.J = self.coupling(path)
@@ -94,9 +95,13 @@ class Oracle:
         return q, rng.normal(0, 2, n), rng.normal(0, 5, n)
 
     def anadyn(self, q, dq, ddq):
+        """M, and tau solving B tau = M ddq - F: by the recursive Newton-Euler algorithm
+        (what ``inverse`` runs) on the recursive path, else from M, F and B."""
         M, F, B = (np.array(a, dtype=float) for a in self.mfb(q, dq))
-        tau = np.linalg.solve(B, M @ ddq - F.ravel())
-        return M, tau
+        if self.demand is not None:
+            demand, B = self.demand(q, dq, ddq)
+            return M, np.linalg.solve(B, demand)
+        return M, np.linalg.solve(B, M @ ddq - F.ravel())
 
     def pinocchio(self, q, dq, ddq):
         config = self.configuration(self.theta(q))
@@ -105,6 +110,15 @@ class Oracle:
         M = np.triu(M) + np.triu(M, 1).T
         tau = pin.rnea(self.model, self.data, config, J @ dq, J @ ddq)
         return J.T @ M @ J, J.T @ tau
+
+
+def _anadyn_demand(robot):
+    """(q, dq, ddq) -> (M ddq - F, B) of the recursive path's inverse dynamics."""
+    from anadyn_cli.numeric.build import numeric_model
+
+    model = numeric_model(robot, "kane")
+    assert model._inverse is not None              # the RNEA, not M ddq - F from mfb
+    return lambda q, dq, ddq: model.demand(0.0, q, dq, ddq)
 
 
 def _anadyn_mfb(robot, method: str):

@@ -74,11 +74,15 @@ def numeric_model(robot, formulation: str = "kane", use_cache: bool = False,
 
 def _recursive_model(robot, use_cache: bool, timings: dict) -> NumericModel:
     """Recursive path: generated Python now, the C library when cached (or built
-    in the background for the next run; see ``native.mode``)."""
+    in the background for the next run; see ``native.mode``).  On a cold run
+    the forward dynamics are traced first and compiled alone (``QuickBuild``)
+    while the rest is generated: the run switches to that C when it is built."""
     from . import native, recursive, trajectory
 
     start = time.perf_counter()
-    generated = recursive.generate(robot)
+    forward = recursive.forward(recursive.plan(robot))
+    quick = native.QuickBuild.start(native.c_source(forward)) if use_cache else None
+    generated = recursive.complete(forward)
     code = recursive.module_source(generated) + trajectory.motion_source(robot)
     if "def powers(" not in code:     # check's loads' power, dissipation, springs' energy
         from .closed_form import forces_source
@@ -88,7 +92,7 @@ def _recursive_model(robot, use_cache: bool, timings: dict) -> NumericModel:
     info = RobotInfo.from_robot(robot)
     start = time.perf_counter()
     model = native.numeric_model(info, code, c_text, "recursive", timings,
-                                 how=None if use_cache else "off")
+                                 how=None if use_cache else "off", quick=quick)
     timings["compile"] = time.perf_counter() - start
     if use_cache:
         cache.store(robot.digest, "recursive", {"code": code, "c": c_text,

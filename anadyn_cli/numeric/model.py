@@ -32,12 +32,19 @@ class PrescribedMotion:
         return self._function(t)
 
 
+def run_generated(source: str) -> dict:
+    """The namespace of anadyn's own generated module ``source`` (never user text:
+    expressions reach generated code only through the whitelist parser)."""
+    namespace: dict[str, object] = {}
+    exec(compile(source, "<anadyn generated>", "exec"), namespace)   # noqa: S102
+    return namespace
+
+
 class NumericModel:
     """Compiled functions of one robot's equations by one formulation."""
 
     def __init__(self, info: RobotInfo, source: str, formulation: str = "kane"):
-        namespace: dict[str, object] = {}
-        exec(compile(source, "<anadyn generated>", "exec"), namespace)   # noqa: S102
+        namespace = run_generated(source)
         self.info, self.source, self.formulation = info, source, formulation
         self.coordinates: tuple[str, ...] = namespace["COORDINATES"]
         self.effort_names: tuple[str, ...] = namespace["EFFORTS"]
@@ -46,6 +53,8 @@ class NumericModel:
         self._jacobian = namespace.get("dynamics_jacobian")     # None: not generated
         self._efforts = namespace["efforts"]
         self._mfb = namespace["mfb"]
+        self._inverse = namespace.get("inverse_dynamics")   # the recursive path's RNEA
+        self._actuation = namespace.get("actuation")        # and its B alone
         self._potential = namespace["potential"]
         self._motion = (PrescribedMotion(*namespace["TRAJECTORY"], namespace["motion"])
                         if "TRAJECTORY" in namespace else None)
@@ -109,6 +118,18 @@ class NumericModel:
         (F depends on t through the loads)."""
         with np.errstate(all="ignore"):
             return self._mfb(t, *q, *dq)
+
+    def demand(self, t, q, dq, ddq) -> tuple[np.ndarray, np.ndarray]:
+        """(B tau, B) of M ddq = F + B tau: B tau = M ddq - F (..., n) and B
+        (..., n, m) over arrays of times and states (coordinates first).  The
+        recursive path computes M ddq - F by the recursive Newton-Euler
+        algorithm, O(n) a point; the closed forms from M, F and B."""
+        with np.errstate(all="ignore"):
+            if self._inverse is not None and self._actuation is not None:
+                return self._inverse(t, *q, *dq, *ddq), self._actuation(t, *q, *dq)
+            M, F, B = self._mfb(t, *q, *dq)
+            rates = np.moveaxis(np.asarray(ddq, dtype=float), 0, -1)
+            return np.einsum("...ij,...j->...i", M, rates) - F, B
 
     @property
     def has_forces(self) -> bool:

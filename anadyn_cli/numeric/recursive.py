@@ -917,6 +917,18 @@ def trace_inverse(pl: Plan) -> Traced:
                    {"ID": res})
 
 
+def trace_actuation(pl: Plan) -> Traced:
+    """B(t, q) (n x m): column k is d(theta_j)/dq for actuator k's joint j, so that
+    the generalized forces of the efforts are B tau (with ``inverse_dynamics``:
+    B tau = M ddq - F, the RNEA's O(n) inverse dynamics)."""
+    n = pl.n
+    P = Program()
+    with P:
+        _, rows, _ = Tracer(pl, P).joint_maps()
+        B = [[rows[j][r] for j in pl.actuator_joint] for r in range(n)]
+    return _finish("actuation", state_args(n), P, {"B": B})
+
+
 def trace_efforts(pl: Plan) -> Traced:
     P = Program()
     with P:
@@ -1004,11 +1016,12 @@ class Generated:
         return self.functions[name].counts
 
 
-def generate(robot: Robot) -> Generated:
-    """Every function of ``robot``.  The accelerations come from the cheaper (in
-    operations) of CRBA + sparse Cholesky and the articulated-body algorithm; the
-    Jacobian always uses the Cholesky factor (``factor``)."""
-    pl = plan(robot)
+def forward(pl: Plan) -> Generated:
+    """The forward dynamics alone (``accelerations`` and ``factor``): all a quick
+    native build needs (``native.c_source`` of it has no Jacobian).  The
+    accelerations come from the cheaper (in operations) of CRBA + sparse
+    Cholesky and the articulated-body algorithm; the Jacobian always uses the
+    Cholesky factor (``factor``)."""
     factor, fac = trace_accelerations(pl, with_factor=True)
     factor.name = "factor"
     acc = Traced("accelerations", factor.args, factor.statements, {"ddq": factor.outputs["ddq"]},
@@ -1016,10 +1029,23 @@ def generate(robot: Robot) -> Generated:
     aba = trace_aba(pl)
     if aba is not None and aba.counts.total < acc.counts.total:
         acc = aba
-    functions = {"accelerations": acc, "factor": factor, "dynamics_jacobian": trace_jacobian(pl),
+    return Generated(pl, {"accelerations": acc, "factor": factor}, fac)
+
+
+def complete(gen: Generated) -> Generated:
+    """``gen`` (from ``forward``) with the Jacobian, M F B, the efforts, the
+    inverse dynamics, the actuation matrix and the potential."""
+    pl = gen.plan
+    functions = {**gen.functions, "dynamics_jacobian": trace_jacobian(pl),
                  "mfb": trace_mfb(pl), "efforts": trace_efforts(pl),
-                 "inverse_dynamics": trace_inverse(pl), "potential": trace_potential(pl)}
-    return Generated(pl, functions, fac)
+                 "inverse_dynamics": trace_inverse(pl), "actuation": trace_actuation(pl),
+                 "potential": trace_potential(pl)}
+    return Generated(pl, functions, gen.factor)
+
+
+def generate(robot: Robot) -> Generated:
+    """Every function of ``robot`` (``forward``, then ``complete``)."""
+    return complete(forward(plan(robot)))
 
 
 DOCS = {
@@ -1032,11 +1058,13 @@ DOCS = {
                          "d(ddq)/dx = M^-1 K (scalar).",
     "efforts": "Actuator efforts under the control laws (vectorized).",
     "mfb": "M, F and B of M ddq = F + B tau (vectorized).",
-    "inverse_dynamics": "ID = M ddq - F (vectorized).",
+    "inverse_dynamics": "ID = M ddq - F by the recursive Newton-Euler algorithm, O(n) "
+                        "(vectorized).",
+    "actuation": "B of M ddq = F + B tau (vectorized).",
     "potential": "Potential energy V of gravity and joint springs (vectorized).",
 }
 
-VECTORIZED = {"efforts", "mfb", "inverse_dynamics", "potential"}
+VECTORIZED = {"efforts", "mfb", "inverse_dynamics", "actuation", "potential"}
 from .native import VECTOR_MARK  # noqa: E402  (the split a native model uses)
 
 

@@ -9,8 +9,9 @@ give, with B square and non-singular,
 F holds the joint forces and loads, so the efforts overcome friction,
 damping, springs and loads.
 
-evaluated over the whole time grid at once (``CompiledRobot.mfb`` on arrays,
-one batched solve; no Python loop per point).
+evaluated over the whole time grid at once (the model's ``demand`` on arrays:
+the recursive Newton-Euler algorithm, O(n) a point, on the recursive path;
+one batched solve for B; no Python loop per point).
 
 Round trip: the direct dynamics x' = [dq, M^-1 (F + B tau(t))], driven by the
 efforts as exact functions of time (recomputed from the trajectory at the
@@ -53,8 +54,9 @@ SINGULAR = 1e-10             # |det B| / prod |columns of B| below this: B singu
 class InverseDynamics:
     """tau(t) = B^-1 (M ddq - F) along a prescribed motion.
 
-    ``motion(t) -> q, dq, ddq`` (arrays of shape t.shape + (n,)) and the
-    robot's compiled ``mfb``; both take arrays of any shape or scalars.
+    ``motion(t) -> q, dq, ddq`` (arrays of shape t.shape + (n,)); M ddq - F and
+    B come from the model's ``demand`` (the recursive Newton-Euler algorithm on
+    the recursive path, O(n) a point); both take arrays of any shape or scalars.
     """
 
     def __init__(self, model: NumericModel, motion):
@@ -68,25 +70,26 @@ class InverseDynamics:
         states with the coordinates last."""
         return self.model.mfb(t, np.moveaxis(q, -1, 0), np.moveaxis(dq, -1, 0))
 
+    def demand(self, t, q, dq, ddq):
+        """(M ddq - F (..., n), B (..., n, m)) with the coordinates last."""
+        return self.model.demand(t, *(np.moveaxis(v, -1, 0) for v in (q, dq, ddq)))
+
     def efforts(self, t):
         """(q, dq, ddq, tau) over the time array ``t``; tau has shape t.shape + (m,)."""
         q, dq, ddq = self.motion(t)
-        M, F, B = self.matrices(t, q, dq)
-        return q, dq, ddq, self.solve(M, F, B, ddq)
+        return q, dq, ddq, self.solve(*self.demand(t, q, dq, ddq))
 
     @staticmethod
-    def solve(M, F, B, ddq):
-        """tau = B^-1 (M ddq - F) at every point (B square); one LU when B is constant."""
-        demand = np.einsum("...ij,...j->...i", M, ddq) - F          # = B tau
+    def solve(demand, B):
+        """tau solving B tau = demand (= M ddq - F) at every point (B square); one LU
+        when B is constant."""
         if B.ndim > 2 and len(B) and (B == B[:1]).all():
             return np.linalg.solve(B[0], demand.T).T
         return np.linalg.solve(B, demand[..., None])[..., 0]
 
     def effort_at(self, t: float) -> np.ndarray:
         """tau at one time (the round trip's exact forcing)."""
-        q, dq, ddq = self.motion(t)
-        M, F, B = self.matrices(t, q, dq)
-        return np.linalg.solve(B, M @ ddq - F)
+        return self.efforts(np.array(t, dtype=float))[3]
 
 
 @dataclass
@@ -181,7 +184,7 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
     start = time.perf_counter()
     with np.errstate(all="ignore"):
         q, dq, ddq = motion(t)
-        M, F, B = dynamics.matrices(t, q, dq)
+        demand, B = dynamics.demand(t, q, dq, ddq)
     elapsed = time.perf_counter() - start
     for name, values in (("q", q), ("dq", dq), ("ddq", ddq)):
         bad = ~np.isfinite(values)
@@ -194,7 +197,7 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
     _check_actuation(info, t, B)
     start = time.perf_counter()
     with np.errstate(all="ignore"):
-        tau = dynamics.solve(M, F, B, ddq)
+        tau = dynamics.solve(demand, B)
     timings["efforts"] = elapsed + time.perf_counter() - start
     _finite(info, t, tau, "the efforts")
     result = InverseResult(info, model.formulation, motion.kind, motion.duration, step, t,

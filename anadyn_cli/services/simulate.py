@@ -35,6 +35,7 @@ class SimulationResult:
     formulation: str = ""                 # kane or lagrange (named in the plot's title)
     constraints: "constrained.ConstraintRun | None" = None   # drift, multipliers (closed chains)
     limits: list = field(default_factory=list)   # limits.Exceeded: bounds of the file passed
+    code: str = ""                        # what computed the RHS (native C, generated Python)
 
     @property
     def t(self) -> np.ndarray:
@@ -77,7 +78,8 @@ def simulate(model: NumericModel, method: str | None = None, rtol: float | None 
     efforts = model.efforts(solution.t, q, dq) if m else np.zeros((0, len(solution.t)))
     efforts = np.broadcast_to(efforts, (m, len(solution.t))).T
     result = SimulationResult(model.info, settings, solution, np.array(efforts), timings,
-                              formulation=model.formulation)
+                              formulation=model.formulation,
+                              code=getattr(model, "native_note", "generated Python"))
     result.limits = limits.check(model.info, solution.t, solution.x[:, :n], solution.x[:, n:],
                                  result.efforts)
     if constrained.is_constrained(model):       # drift and constraint forces on every row
@@ -137,6 +139,7 @@ def summary(result: SimulationResult) -> dict:
             "jacobian_calls": solution.jacobian_calls, "steps": solution.steps,
             "rtol": result.settings.rtol, "atol": result.settings.atol,
             "t_end": float(result.t[-1]), "rows": len(result.t), "final": final,
+            "code": result.code,
             "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)},
             **({} if result.estimated_error is None
                else {"estimated_error": result.estimated_error}),
