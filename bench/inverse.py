@@ -6,9 +6,11 @@
 Robots from ``bench/scale_robots.py`` (anadyn YAML and URDF with the same
 numbers); ``points`` random states (q, dq, ddq).  For each robot, in one run:
 
-  rnea        tau = B^-1 (M ddq - F) with M ddq - F by the generated recursive
-              Newton-Euler algorithm and B alone (``NumericModel.demand``:
-              what ``anadyn inverse`` runs), vectorized over the points
+  rnea C      tau = B^-1 (M ddq - F) with M ddq - F by the generated recursive
+              Newton-Euler algorithm, the C kernel looping over the points, and
+              B alone (``NativeModel.demand``: what a warm ``anadyn inverse`` runs)
+  rnea py     the same in the generated NumPy code, vectorized over the points
+              (a cold run, or no compiler)
   mfb         the same efforts from the full M, F, B (what ``inverse`` ran
               before: O(n^2) a point for M)
   pinocchio   ``pin.rnea`` called once per point from Python (what a user
@@ -23,6 +25,7 @@ script exits 1.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import tempfile
 import time
@@ -53,26 +56,31 @@ def best_of(repeats: int, run):
 def measure(spec: sr.Spec, folder: Path, points: int, repeats: int) -> dict:
     import pinocchio as pin
     from anadyn_cli import robot_from_text
-    from anadyn_cli.numeric import recursive
-    from anadyn_cli.numeric.build import numeric_model
+    from anadyn_cli.model.info import RobotInfo
+    from anadyn_cli.numeric import native, recursive
+    from anadyn_cli.services.inverse import InverseDynamics
 
     urdf = folder / f"{spec.name}.urdf"
     urdf.write_text(sr.to_urdf(spec))
     robot = robot_from_text(sr.to_yaml(spec), f"{spec.name}.yaml")
-    model = numeric_model(robot)                       # the recursive path, as the CLI
     gen = recursive.generate(robot)
+    code, info = recursive.module_source(gen), RobotInfo.from_robot(robot)
+    model = native.RecursiveModel(info, code)                      # generated NumPy
+    module, why = native.build(native.c_source(gen))
+    if module is None:
+        raise SystemExit(f"no native build: {why}")
+    fast = native.NativeModel(info, code, "recursive", module)     # C
     n = model.n
     rng = np.random.default_rng(1)
     q, dq, ddq = (rng.uniform(-1, 1, (points, n)) for _ in range(3))
 
-    def rnea():
+    def rnea(model=model):
         demand, B = model.demand(0.0, q.T, dq.T, ddq.T)
-        return np.linalg.solve(B, demand[..., None])[..., 0]
+        return InverseDynamics.solve(demand, np.broadcast_to(B, (points, n, n)))
 
     def mfb():
         M, F, B = model.mfb(0.0, q.T, dq.T)
-        demand = np.einsum("kij,kj->ki", M, ddq) - F
-        return np.linalg.solve(B, demand[..., None])[..., 0]
+        return InverseDynamics.solve(np.einsum("kij,kj->ki", M, ddq) - F, B)
 
     pmodel = pin.buildModelFromUrdf(str(urdf))
     pmodel.gravity.linear = np.array(spec.gravity)
@@ -90,11 +98,12 @@ def measure(spec: sr.Spec, folder: Path, points: int, repeats: int) -> dict:
         return out[:, order]
 
     row = {"name": spec.name, "n": n}
+    row["c_s"], tau_c = best_of(repeats, lambda: rnea(fast))
     row["rnea_s"], tau = best_of(repeats, rnea)
     row["mfb_s"], tau_mfb = best_of(repeats, mfb)
     row["pin_s"], tau_pin = best_of(repeats, pinocchio)
     scale = max(np.abs(tau_pin).max(), 1e-300)
-    row["error"] = float(np.abs(tau - tau_pin).max() / scale)
+    row["error"] = float(max(np.abs(tau - tau_pin).max(), np.abs(tau_c - tau_pin).max()) / scale)
     row["error_mfb"] = float(np.abs(tau_mfb - tau_pin).max() / scale)
     for name in ("inverse_dynamics", "mfb"):
         c = gen.counts(name)
@@ -116,18 +125,21 @@ def main(argv=None) -> int:
         return 2
     rows = []
     with tempfile.TemporaryDirectory(prefix="anadyn-inverse-") as tmp:
+        os.environ["ANADYN_CACHE_DIR"] = tmp              # the C builds, then gone
         for name in args.robots:
             rows.append(measure(SPECS[name](), Path(tmp), args.points, args.repeats))
     print(f"{args.points} random states a robot; us per point (minimum of {args.repeats} runs); "
           "ratio = anadyn / Pinocchio (< 1: anadyn faster)")
-    print(f"{'robot':>8} {'n':>3} {'rnea us':>8} {'mfb us':>8} {'pin us':>8} {'rnea/pin':>9} "
-          f"{'mfb/pin':>8} {'ops ID':>7} {'ops mfb':>8} {'|tau - pin|':>12}")
+    print(f"{'robot':>8} {'n':>3} {'C us':>7} {'py us':>7} {'mfb us':>7} {'pin us':>7} "
+          f"{'C/pin':>6} {'py/pin':>7} {'mfb/pin':>8} {'ops ID':>7} {'ops mfb':>8} "
+          f"{'|tau - pin|':>12}")
     ok = True
     for r in rows:
-        us = {k: r[f"{k}_s"] / args.points * 1e6 for k in ("rnea", "mfb", "pin")}
-        print(f"{r['name']:>8} {r['n']:>3} {us['rnea']:8.3f} {us['mfb']:8.3f} {us['pin']:8.3f} "
-              f"{us['rnea'] / us['pin']:9.2f} {us['mfb'] / us['pin']:8.2f} "
-              f"{r['ops_inverse_dynamics']:>7} {r['ops_mfb']:>8} {r['error']:12.1e}")
+        us = {k: r[f"{k}_s"] / args.points * 1e6 for k in ("c", "rnea", "mfb", "pin")}
+        print(f"{r['name']:>8} {r['n']:>3} {us['c']:7.3f} {us['rnea']:7.3f} {us['mfb']:7.3f} "
+              f"{us['pin']:7.3f} {us['c'] / us['pin']:6.2f} {us['rnea'] / us['pin']:7.2f} "
+              f"{us['mfb'] / us['pin']:8.2f} {r['ops_inverse_dynamics']:>7} {r['ops_mfb']:>8} "
+              f"{r['error']:12.1e}")
         ok = ok and r["error"] <= 1e-9 and r["error_mfb"] <= 1e-9
     return 0 if ok else 1
 

@@ -489,6 +489,16 @@ def test_native_kernels_match_generated_python(repo, tmp_path, monkeypatch, text
         assert np.array_equal(fast.rhs(t, x), slow.rhs(t, x))
         assert np.array_equal(fast.jacobian(t, x), slow.jacobian(t, x))
         assert fast.accelerations(t, x) == slow.accelerations(t, x)
+    # inverse dynamics over many points in C against the vectorized Python (NumPy's
+    # sin and cos may differ from the C library's in the last bit on some machines)
+    rng = np.random.default_rng(5)
+    t, q, dq, ddq = rng.uniform(0, 1, 50), *(rng.uniform(-1, 1, (n, 50)) for _ in range(3))
+    (D_c, B_c), (D_py, B_py) = fast.demand(t, q, dq, ddq), slow.demand(t, q, dq, ddq)
+    assert D_c.shape == D_py.shape == (50, n) and rel(D_c, D_py) < 1e-14
+    assert np.array_equal(B_c, B_py)
+    D_one, _ = fast.demand(0.3, q[:, 0], dq[:, 0], ddq[:, 0])    # one point, scalars
+    assert D_one.shape == (n,) and rel(D_one, slow.demand(0.3, q[:, 0], dq[:, 0],
+                                                          ddq[:, 0])[0]) < 1e-14
     again = native.numeric_model(info, code, c_text)          # cached library
     assert again.native_note == "native C (cached)"
     if text_of == "cubic":

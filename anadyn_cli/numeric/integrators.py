@@ -109,10 +109,6 @@ class _Counted:
             return np.full(len(x), np.nan)
         return out
 
-    def rhs_tfirst(self, x: np.ndarray, t: float) -> np.ndarray:
-        """``rhs`` with odeint's argument order (x, t)."""
-        return self.rhs(t, x)
-
     def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
         self.jacobian_calls += 1
         try:
@@ -123,9 +119,6 @@ class _Counted:
         if not np.isfinite(J).all():
             self._fail(t, x, "non-finite Jacobian")
         return J
-
-    def jacobian_tfirst(self, x: np.ndarray, t: float) -> np.ndarray:
-        return self.jacobian(t, x)
 
     def finite_jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
         """``jacobian`` with a failure (recorded) given as zeros, not NaN: solve_ivp's
@@ -200,7 +193,11 @@ def integrate(problem: Problem, x0: np.ndarray, grid: np.ndarray, method: str = 
                   f"switches between Adams and BDF itself")
         method = "odeint"
     counted = _Counted(problem, budget, seconds)
-    import scipy.integrate  # noqa: F401  imported before the clock starts, not inside a solve
+    if method == "odeint":      # imported before the clock starts, not inside a solve
+        from . import odepack
+        odepack.extension()
+    else:
+        import scipy.integrate  # noqa: F401
     start = time.perf_counter()
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")          # failures are reported as data below
@@ -222,12 +219,11 @@ def integrate(problem: Problem, x0: np.ndarray, grid: np.ndarray, method: str = 
 
 
 def _odeint(counted: _Counted, x0, grid, rtol, atol, stop_at_end: bool) -> Solution:
-    from scipy.integrate import odeint
+    from .odepack import odeint
 
-    jacobian = counted.jacobian_tfirst if counted.problem.jacobian else None
-    x, info = odeint(counted.rhs_tfirst, x0, grid, Dfun=jacobian, rtol=rtol, atol=atol,
-                     full_output=True, mxstep=10**6,
-                     tcrit=[grid[-1]] if stop_at_end else None)
+    jacobian = counted.jacobian if counted.problem.jacobian else None
+    x, info = odeint(counted.rhs, x0, grid, jacobian, rtol=rtol, atol=atol,
+                     mxstep=10**6, tcrit=[grid[-1]] if stop_at_end else None, tfirst=True)
     ok = info["message"].startswith("Integration successful")
     steps = int(info["nst"][-1]) if len(info["nst"]) else 0
     if not ok:      # rows past the last time reached are not valid

@@ -55,6 +55,7 @@ class NumericModel:
         self._mfb = namespace["mfb"]
         self._inverse = namespace.get("inverse_dynamics")   # the recursive path's RNEA
         self._actuation = namespace.get("actuation")        # and its B alone
+        self._constant_actuation = namespace.get("CONSTANT_ACTUATION", False)
         self._potential = namespace["potential"]
         self._motion = (PrescribedMotion(*namespace["TRAJECTORY"], namespace["motion"])
                         if "TRAJECTORY" in namespace else None)
@@ -126,10 +127,17 @@ class NumericModel:
         algorithm, O(n) a point; the closed forms from M, F and B."""
         with np.errstate(all="ignore"):
             if self._inverse is not None and self._actuation is not None:
-                return self._inverse(t, *q, *dq, *ddq), self._actuation(t, *q, *dq)
+                return self._inverse(t, *q, *dq, *ddq), self.actuation(t, q, dq)
             M, F, B = self._mfb(t, *q, *dq)
             rates = np.moveaxis(np.asarray(ddq, dtype=float), 0, -1)
             return np.einsum("...ij,...j->...i", M, rates) - F, B
+
+    def actuation(self, t, q, dq) -> np.ndarray:
+        """B (..., n, m) of the recursive path; (n, m) once when it is constant
+        (joints actuated directly or through fixed combinations)."""
+        if self._constant_actuation:
+            return self._actuation(0.0, *[0.0] * (2 * self.n))
+        return self._actuation(t, *q, *dq)
 
     @property
     def has_forces(self) -> bool:

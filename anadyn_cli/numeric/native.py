@@ -5,7 +5,9 @@ From the traced programs of ``recursive`` this writes one C file with
     int rhs(t, x, out)   out = [dq, ddq], M ddq = F + B tau     0 ok, 1 singular M,
     int jac(t, x, J)     J = [[0, I], [M^-1 K]] (2n x 2n)        2 non-finite result
     int acc(t, x, ddq)
+    inverse(count, t, x, w, out)   out[k] = M w[k] - F at (t[k], x[k]), all k (RNEA)
 
+(the quick module of a cold run has rhs and acc only)
 (M^-1 K by sparse triangular solves with the Cholesky factor of M), wrapped
 as a CPython extension module (METH_FASTCALL, buffer protocol: no NumPy
 headers, ~0.2 us per call).  Long programs are cut into functions of CHUNK
@@ -171,6 +173,10 @@ def _c_source(gen) -> str:
                         [(f"ddq[{k}]", v) for k, v in enumerate(acc.outputs["ddq"])], True)
     if jacobian:
         out += _jacobian_source(gen, state)
+        ID = gen.functions["inverse_dynamics"]
+        out += _chunked("idyn", "double _t, const double *x, const double *w, double *out",
+                        {**state, **{f"_w{k}": f"w[{k}]" for k in range(n)}}, ID.statements,
+                        [(f"out[{k}]", v) for k, v in enumerate(ID.outputs["ID"])], False)
     out.append(C_DRIVER.replace("JACOBIAN\n", C_JACOBIAN if jacobian else "")
                .replace("JAC_METHOD\n", C_JAC_METHOD if jacobian else "")
                .replace("    JAC_ENTRY\n", C_JAC_ENTRY if jacobian else ""))
@@ -311,8 +317,35 @@ int anadyn_jac(double t, const double *x, double *J) {
 C_JAC_METHOD = r"""static PyObject *py_jac(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self; return call(args, nargs, anadyn_jac, 4 * N * N);
 }
+
+/* inverse(count, t, x, w, out): out[k] = ID(t[k], x[k], w[k]) = M w - F, k < count
+   (x rows [q, dq], w rows ddq): the recursive Newton-Euler algorithm at every point. */
+static PyObject *py_inverse(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 5) { PyErr_SetString(PyExc_TypeError, "expected (count, t, x, w, out)"); return NULL; }
+    Py_ssize_t count = PyLong_AsSsize_t(args[0]);
+    if (count < 0) { if (!PyErr_Occurred()) PyErr_SetString(PyExc_ValueError, "count < 0"); return NULL; }
+    Py_buffer bt, bx, bw, bo;
+    if (buffer(args[1], &bt, count, 0) < 0) return NULL;
+    if (buffer(args[2], &bx, 2 * N * count, 0) < 0) { PyBuffer_Release(&bt); return NULL; }
+    if (buffer(args[3], &bw, N * count, 0) < 0) {
+        PyBuffer_Release(&bt); PyBuffer_Release(&bx); return NULL; }
+    if (buffer(args[4], &bo, N * count, 1) < 0) {
+        PyBuffer_Release(&bt); PyBuffer_Release(&bx); PyBuffer_Release(&bw); return NULL; }
+    const double *t = (const double *)bt.buf, *x = (const double *)bx.buf, *w = (const double *)bw.buf;
+    double *o = (double *)bo.buf;
+    int code = 0;
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t k = 0; k < count && !code; k++)
+        code = idyn(t[k], x + 2 * N * k, w + N * k, o + N * k);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&bt); PyBuffer_Release(&bx); PyBuffer_Release(&bw); PyBuffer_Release(&bo);
+    return PyLong_FromLong(code);
+}
 """
-C_JAC_ENTRY = """    {"jac", (PyCFunction)(void (*)(void))py_jac, METH_FASTCALL, "jac(t, x, J) -> code"},\n"""
+C_JAC_ENTRY = ("""    {"jac", (PyCFunction)(void (*)(void))py_jac, METH_FASTCALL, "jac(t, x, J) -> code"},\n"""
+               """    {"inverse", (PyCFunction)(void (*)(void))py_inverse, METH_FASTCALL, """
+               """"inverse(count, t, x, w, out) -> code"},\n""")
 
 
 # ------------------------------------------------------------ compile, load --
@@ -669,6 +702,20 @@ class NativeModel(RecursiveModel):
         if self._jac_c(t, np.ascontiguousarray(x, dtype=float), J) == 1:
             raise np.linalg.LinAlgError("mass matrix not positive definite")
         return J
+
+    def demand(self, t, q, dq, ddq) -> tuple[np.ndarray, np.ndarray]:
+        """As ``NumericModel.demand``, M ddq - F by the C kernel over all points."""
+        with np.errstate(all="ignore"):
+            arrays = np.broadcast_arrays(np.asarray(t, dtype=float),
+                                         *(np.asarray(v, dtype=float) for v in (*q, *dq, *ddq)))
+            shape, n = arrays[0].shape, self.n
+            columns = np.stack([a.reshape(-1) for a in arrays[1:]], axis=1)   # (count, 3n)
+            count = len(columns)
+            out = np.empty((count, n))
+            self.native.inverse(count, np.ascontiguousarray(arrays[0].reshape(-1)),
+                                np.ascontiguousarray(columns[:, :2 * n]),
+                                np.ascontiguousarray(columns[:, 2 * n:]), out)
+            return out.reshape(shape + (n,)), self.actuation(t, q, dq)
 
 
 def numeric_model(info, code: str, c_text: str | None, formulation: str = "recursive",

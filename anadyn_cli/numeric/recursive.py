@@ -1091,6 +1091,8 @@ def module_source(gen: Generated, header: str = "") -> str:
                     for line in body]
         lines += body + [""]
     lines.append(f"FACTOR = {factor_tables(gen.factor, pl.n)!r}")
+    B = gen.functions["actuation"].outputs["B"]
+    lines.append(f"CONSTANT_ACTUATION = {all(x.constant() is not None for row in B for x in row)}")
     lines.append(f"COORDINATES = {tuple(pl.coordinates)!r}")
     lines.append(f"EFFORTS = {tuple(pl.efforts)!r}")
     return "\n".join(lines) + "\n"

@@ -83,7 +83,7 @@ class InverseDynamics:
     def solve(demand, B):
         """tau solving B tau = demand (= M ddq - F) at every point (B square); one LU
         when B is constant."""
-        if B.ndim > 2 and len(B) and (B == B[:1]).all():
+        if B.ndim > 2 and len(B) and _constant(B):
             return np.linalg.solve(B[0], demand.T).T
         return np.linalg.solve(B, demand[..., None])[..., 0]
 
@@ -375,6 +375,11 @@ def _check_counts(info: RobotInfo) -> None:
                          path="actuators")
 
 
+def _constant(B: np.ndarray) -> bool:
+    """Whether the stack B (N, n, m) is one matrix (a broadcast one is, unread)."""
+    return B.strides[0] == 0 or bool((B == B[:1]).all())
+
+
 def _check_actuation(info: RobotInfo, t: np.ndarray, B: np.ndarray) -> None:
     """B (N, n, m) must be square and non-singular at every point; say what is not actuated."""
     n, m = B.shape[1:]
@@ -388,7 +393,7 @@ def _check_actuation(info: RobotInfo, t: np.ndarray, B: np.ndarray) -> None:
         idle = _describe(_null_space(B[0]), [a.name for a in info.actuators])
         raise ModelError(f"{counts}: {NEEDS}; the efforts are not unique (efforts {idle} "
                          "produce no generalized force)", source=info.source, path="actuators")
-    if len(B) and (B == B[:1]).all():
+    if len(B) and _constant(B):
         bad = 0 if _singular(B[:1])[0] else None
     else:
         flags = np.flatnonzero(_singular(B))
