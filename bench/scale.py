@@ -340,6 +340,11 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     global CALLGRIND
     CALLGRIND = args.callgrind
+    # anadyn's bytecode, as ``pip install`` leaves it (Pinocchio's is in site-packages):
+    # from a checkout with PYTHONDONTWRITEBYTECODE set, every run would compile the
+    # package again (~0.1 s)
+    import compileall
+    compileall.compile_dir(str(HERE.parent / "anadyn_cli"), quiet=1)
     try:
         import pinocchio  # noqa: F401
         pin_available = True

@@ -616,14 +616,20 @@ def test_the_quick_build_gives_the_bits_of_the_python(text_of, tmp_path, monkeyp
     assert module is not None, why
     assert not hasattr(module, "jac")
     from anadyn_cli.model.info import RobotInfo
-    python = native.RecursiveModel(RobotInfo.from_robot(robot),
-                                   recursive.module_source(recursive.complete(forward)))
+    info = RobotInfo.from_robot(robot)
+    code = recursive.module_source(recursive.complete(forward))
+    python = native.RecursiveModel(info, code)
+    quick = native.RecursiveModel(info, code, quick=native.QuickBuild(c_text, None, module))
     n = python.n
     for t, q, dq, _ in states(n, 4, 11):
         x = np.concatenate([q, dq])
         out = np.empty(2 * n)
         if module.rhs(t, x, out) == 0:
             assert np.array_equal(out, python.rhs(t, x))
+            assert np.array_equal(quick.rhs(t, x), out)
+            # the Jacobian: C factor and solve around the Python K, to the bit
+            assert np.array_equal(quick.jacobian(t, x), python.jacobian(t, x))
+    assert quick.native_note.startswith("native C (compiled during the run")
 
 
 @needs_compiler
