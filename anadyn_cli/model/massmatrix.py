@@ -36,6 +36,10 @@ RANDOM_STATES = 2
 
 
 def _number(expr: sp.Expr, values: dict) -> float:
+    if isinstance(expr, sp.Float) or (isinstance(expr, sp.Integer) and abs(expr) < 2**53):
+        value = float(expr)                           # most entries: the number itself
+        if math.isfinite(value):
+            return value
     approximate(expr, values)        # ExpressionError (a ValueError) where it overflows
     value = complex(expr.xreplace(values).evalf())
     if value.imag != 0 or not math.isfinite(value.real):
