@@ -39,9 +39,7 @@ sys.path.insert(0, str(HERE.parent))
 
 import scale_robots as sr  # noqa: E402
 
-SPECS = {"chain6": lambda: sr.chain(6), "chain12": lambda: sr.chain(12),
-         "chain24": lambda: sr.chain(24), "tree30": sr.tree, "arm7": sr.arm7,
-         "panda": sr.panda}
+SPECS = sr.SPECS
 
 
 def best_of(repeats: int, run):

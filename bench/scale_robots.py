@@ -207,3 +207,8 @@ def panda(path: Path = PANDA) -> Spec:
             com=_floats(com.get("xyz")), inertia=inertia,
             initial=0.3 * math.sin(i + 0.3), target=0.4 * math.cos(i), gains=(5.0, 80.0)))
     return Spec("panda", links)
+
+
+#: the named robots of the benches' --robots options
+SPECS = {"chain6": lambda: chain(6), "chain12": lambda: chain(12), "chain24": lambda: chain(24),
+         "tree30": tree, "arm7": arm7, "panda": panda}
