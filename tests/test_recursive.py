@@ -489,6 +489,13 @@ def test_native_kernels_match_generated_python(repo, tmp_path, monkeypatch, text
         assert np.array_equal(fast.rhs(t, x), slow.rhs(t, x))
         assert np.array_equal(fast.jacobian(t, x), slow.jacobian(t, x))
         assert fast.accelerations(t, x) == slow.accelerations(t, x)
+        # the round trip's direct dynamics under given efforts: C and Python to the
+        # bit, and M^-1 (F + B e) from the vectorized M, F, B
+        e = np.linspace(-1.0, 2.0, len(info.actuators))
+        driven = fast.driven_accelerations(t, x, e)
+        assert np.array_equal(driven, slow.driven_accelerations(t, x, e))
+        if text_of == "cubic" or np.linalg.cond(slow.mfb(t, q[:, None], dq[:, None])[0][0]) < 1e8:
+            assert rel(driven, NumericModel.driven_accelerations(slow, t, x, e)) < 1e-10
     # inverse dynamics over many points in C against the vectorized Python (NumPy's
     # sin and cos may differ from the C library's in the last bit on some machines)
     rng = np.random.default_rng(5)

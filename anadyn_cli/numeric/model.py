@@ -56,6 +56,7 @@ class NumericModel:
         self._inverse = namespace.get("inverse_dynamics")   # the recursive path's RNEA
         self._actuation = namespace.get("actuation")        # and its B alone
         self._constant_actuation = namespace.get("CONSTANT_ACTUATION", False)
+        self._constant_B: np.ndarray | None = None          # B once, when constant
         self._potential = namespace["potential"]
         self._motion = (PrescribedMotion(*namespace["TRAJECTORY"], namespace["motion"])
                         if "TRAJECTORY" in namespace else None)
@@ -133,11 +134,21 @@ class NumericModel:
             return np.einsum("...ij,...j->...i", M, rates) - F, B
 
     def actuation(self, t, q, dq) -> np.ndarray:
-        """B (..., n, m) of the recursive path; (n, m) once when it is constant
-        (joints actuated directly or through fixed combinations)."""
-        if self._constant_actuation:
-            return self._actuation(0.0, *[0.0] * (2 * self.n))
-        return self._actuation(t, *q, *dq)
+        """B (..., n, m) of the recursive path; (n, m), evaluated once, when it is
+        constant (joints actuated directly or through fixed combinations)."""
+        if not self._constant_actuation:
+            return self._actuation(t, *q, *dq)
+        if self._constant_B is None:
+            self._constant_B = self._actuation(0.0, *[0.0] * (2 * self.n))
+            self._constant_B.setflags(write=False)
+        return self._constant_B
+
+    def driven_accelerations(self, t: float, x: np.ndarray, efforts) -> np.ndarray:
+        """ddq solving M ddq = F + B e at one state x = [q, dq] for given actuator
+        efforts e (numpy.linalg.LinAlgError if M is singular)."""
+        n = self.n
+        M, F, B = self.mfb(t, x[:n], x[n:])
+        return np.linalg.solve(M, F + B @ np.asarray(efforts, dtype=float))
 
     @property
     def has_forces(self) -> bool:

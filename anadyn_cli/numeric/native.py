@@ -1,32 +1,36 @@
-"""Native code for the integrators' two hot calls: C through the system compiler.
+"""Native code for the integrators' hot calls: C through the system compiler.
 
 From the traced programs of ``recursive`` this writes one C file with
 
-    int rhs(t, x, out)   out = [dq, ddq], M ddq = F + B tau     0 ok, 1 singular M,
-    int jac(t, x, J)     J = [[0, I], [M^-1 K]] (2n x 2n)        2 non-finite result
-    int acc(t, x, ddq)
-    inverse(count, t, x, w, out)   out[k] = M w[k] - F at (t[k], x[k]), all k (RNEA)
+    int rhs(t, x, out)     out = [dq, ddq], M ddq = F + B tau   0 ok, 1 singular M,
+    int acc(t, x, ddq)                                          2 non-finite result
+    int factor(t, x, out)  out = [ddq by CRBA, the factor P M P^T = L L^T]
+    int ksolve(fac, K, J)  J = [[0, I], [M^-1 K]] (2n x 2n) by sparse triangular solves
+    int jac(t, x, J)       factor, K = -dID/dx at fixed ddq, ksolve
+    int inverse(count, t, x, w, out)   out[k] = M w[k] - F at (t[k], x[k]) by the RNEA
+    int driven(t, x, e, ddq)           M ddq = F + B e for given actuator efforts e
 
-(the quick module of a cold run has rhs and acc only)
-(M^-1 K by sparse triangular solves with the Cholesky factor of M), wrapped
-as a CPython extension module (METH_FASTCALL, buffer protocol: no NumPy
-headers, ~0.2 us per call).  Long programs are cut into functions of CHUNK
-statements (gcc's register allocation is superlinear in a basic block's
-length) and compiled at -O1.
+wrapped as a CPython extension module (METH_FASTCALL, buffer protocol: no
+NumPy headers, ~0.2 us per call).  Long programs are cut into functions of
+CHUNK statements (gcc's register allocation is superlinear in a basic
+block's length) and compiled at -O1.  The quick module of a cold run
+(``recursive.forward``: no K, no inverse or driven dynamics)
+is compiled at -O0 (``QuickBuild``).
 
-When: on a cache miss the run uses the generated Python and the compiler runs
-in a detached process at the lowest priority, leaving the library in
-``<cache folder>-native/`` named by a hash of its C source, the compiler and
-the Python version (``build_in_background``); the next run loads it
-(``load``).  ``ANADYN_NATIVE=wait`` compiles before running, ``ANADYN_NATIVE=0``
-never.  No compiler, no Python headers or a failed compile: the generated
-Python runs (``model.native_note`` says why); nothing else changes, since the
-Python and the C give the same bits (``RecursiveModel.jacobian`` follows the
-C's order of operations).
+When: on a cache miss the run starts with the generated Python, the quick
+module compiles on the other core and the run switches to it when it is built
+(``RecursiveModel``), and the full library compiles in a detached process at
+the lowest priority, into ``<cache folder>-native/``, named by a hash of its
+C source, the compiler and the Python version (``build_in_background``); the
+next run loads it (``load``).  ``ANADYN_NATIVE=wait`` compiles before
+running, ``ANADYN_NATIVE=0`` never.  No compiler, no Python headers or a
+failed compile: the generated Python runs (``model.native_note`` says why);
+nothing else changes, since the Python and the C give the same bits
+(``RecursiveModel.jacobian`` follows the C's order of operations).
 
-``NativeModel`` is a ``NumericModel`` whose ``rhs``, ``jacobian`` and
-``accelerations`` call the extension; the vectorized functions (M, F, B,
-efforts, inverse dynamics, energy over arrays of states) stay NumPy.
+``NativeModel`` is a ``NumericModel`` whose ``rhs``, ``jacobian``,
+``accelerations`` and ``demand`` call the extension; the other vectorized
+functions (M, F, B, efforts, energy over arrays of states) stay NumPy.
 """
 from __future__ import annotations
 
@@ -63,7 +67,7 @@ QUICK_FLAGS = ("-O0", *FLAGS[1:])
 #: functions that pass values through one array
 CHUNK = 300
 
-_ATOM = re.compile(r"\b_(?:[aquw]\d+|t)\b")
+_ATOM = re.compile(r"\b_(?:[aquwe]\d+|t)\b")
 
 
 def _chunked(name: str, params: str, inputs: dict[str, str], statements, outputs,
@@ -177,6 +181,12 @@ def _c_source(gen) -> str:
         out += _chunked("idyn", "double _t, const double *x, const double *w, double *out",
                         {**state, **{f"_w{k}": f"w[{k}]" for k in range(n)}}, ID.statements,
                         [(f"out[{k}]", v) for k, v in enumerate(ID.outputs["ID"])], False)
+        driven = gen.functions["driven_accelerations"]
+        efforts = {a: f"e[{a[2:]}]" for a in driven.args if a.startswith("_e")}
+        out += _chunked("drv", "double _t, const double *x, const double *e, double *ddq",
+                        {**state, **efforts}, driven.statements,
+                        [(f"ddq[{k}]", v) for k, v in enumerate(driven.outputs["ddq"])], True)
+        out.append(f"#define M_EFFORTS {len(efforts)}")
     out.append(C_DRIVER.replace("JACOBIAN\n", C_JACOBIAN if jacobian else "")
                .replace("JAC_METHOD\n", C_JAC_METHOD if jacobian else "")
                .replace("    JAC_ENTRY\n", C_JAC_ENTRY if jacobian else ""))
@@ -202,8 +212,8 @@ def _k_source(gen, state: dict) -> list[str]:
 
 
 def _factor_tables(gen) -> list[str]:
-    """The sparse factor's tables for ``solve_k``: row i of L (k < i) and column i
-    of L (k > i), and the elimination order."""
+    """The sparse factor's tables for ``anadyn_ksolve``: row i of L (k < i) and
+    column i of L (k > i), and the elimination order."""
     n, fac = gen.plan.n, gen.factor
     position = {key: n + k for k, key in enumerate(sorted(fac.L))}
     rows = [[(k, position[i, k]) for k in range(i) if (i, k) in fac.L] for i in range(n)]
@@ -337,7 +347,12 @@ PyMODINIT_FUNC INIT_FUNCTION(void) { return PyModule_Create(&module); }
 """
 
 #: the Jacobian's driver (modules with the Jacobian only)
-C_JACOBIAN = r"""int anadyn_jac(double t, const double *x, double *J) {
+C_JACOBIAN = r"""int anadyn_driven(double t, const double *x, const double *e, double *ddq) {
+    if (drv(t, x, e, ddq)) return 1;
+    return finite_all(ddq, N) ? 0 : 2;
+}
+
+int anadyn_jac(double t, const double *x, double *J) {
     double ddq[N], factor[NFAC], K[2 * N * N];
     if (fac(t, x, ddq, factor)) return 1;
     kmat(t, x, ddq, K);
@@ -347,6 +362,21 @@ C_JACOBIAN = r"""int anadyn_jac(double t, const double *x, double *J) {
 
 C_JAC_METHOD = r"""static PyObject *py_jac(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self; return call(args, nargs, anadyn_jac, 4 * N * N);
+}
+
+/* driven(t, x, e, ddq): ddq solving M ddq = F + B e for the actuators' efforts e. */
+static PyObject *py_driven(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 4) { PyErr_SetString(PyExc_TypeError, "expected (t, x, e, ddq)"); return NULL; }
+    double t = PyFloat_AsDouble(args[0]);
+    if (t == -1.0 && PyErr_Occurred()) return NULL;
+    Py_buffer bx, be, bd;
+    if (buffer(args[1], &bx, 2 * N, 0) < 0) return NULL;
+    if (buffer(args[2], &be, M_EFFORTS, 0) < 0) { PyBuffer_Release(&bx); return NULL; }
+    if (buffer(args[3], &bd, N, 1) < 0) { PyBuffer_Release(&bx); PyBuffer_Release(&be); return NULL; }
+    int code = anadyn_driven(t, (const double *)bx.buf, (const double *)be.buf, (double *)bd.buf);
+    PyBuffer_Release(&bx); PyBuffer_Release(&be); PyBuffer_Release(&bd);
+    return PyLong_FromLong(code);
 }
 
 /* inverse(count, t, x, w, out): out[k] = ID(t[k], x[k], w[k]) = M w - F, k < count
@@ -376,7 +406,9 @@ static PyObject *py_inverse(PyObject *self, PyObject *const *args, Py_ssize_t na
 """
 C_JAC_ENTRY = ("""    {"jac", (PyCFunction)(void (*)(void))py_jac, METH_FASTCALL, "jac(t, x, J) -> code"},\n"""
                """    {"inverse", (PyCFunction)(void (*)(void))py_inverse, METH_FASTCALL, """
-               """"inverse(count, t, x, w, out) -> code"},\n""")
+               """"inverse(count, t, x, w, out) -> code"},\n"""
+               """    {"driven", (PyCFunction)(void (*)(void))py_driven, METH_FASTCALL, """
+               """"driven(t, x, e, ddq) -> code"},\n""")
 
 
 # ------------------------------------------------------------ compile, load --
@@ -631,6 +663,14 @@ def _call(kernel, t: float, x, out: np.ndarray) -> np.ndarray:
     return out
 
 
+def _driven(kernel, t: float, x, efforts, out: np.ndarray) -> np.ndarray:
+    """``kernel(t, x, e, out)`` of the extension; LinAlgError for a singular M."""
+    if kernel(t, np.ascontiguousarray(x, dtype=float),
+              np.ascontiguousarray(efforts, dtype=float), out) == 1:
+        raise np.linalg.LinAlgError("mass matrix not positive definite")
+    return out
+
+
 class RecursiveModel(NumericModel):
     """The generated Python of the recursive path.  Its Jacobian solves
     M (d ddq/dx) = K with the factor that ``factor`` computes, column by column
@@ -716,6 +756,10 @@ class RecursiveModel(NumericModel):
             J[n + order[i]] = y[i]
         return J
 
+    def driven_accelerations(self, t: float, x: np.ndarray, efforts) -> np.ndarray:
+        return np.array(self.scalar("driven_accelerations")(
+            t, *np.asarray(x, dtype=float).tolist(), *np.asarray(efforts, dtype=float).tolist()))
+
     @property
     def _nfac(self) -> int:
         """n + the stored entries of L (``factor``'s output after ddq)."""
@@ -753,12 +797,22 @@ class NativeModel(RecursiveModel):
             raise np.linalg.LinAlgError("mass matrix not positive definite")
         return J
 
+    def driven_accelerations(self, t: float, x: np.ndarray, efforts) -> np.ndarray:
+        return _driven(self.native.driven, t, x, efforts, np.empty(self.n))
+
     def demand(self, t, q, dq, ddq) -> tuple[np.ndarray, np.ndarray]:
         """As ``NumericModel.demand``, M ddq - F by the C kernel over all points."""
+        n = self.n
+        if np.ndim(t) == 0 and np.ndim(q) == 1:            # one point (the round trip)
+            out = np.empty((1, n))
+            self.native.inverse(1, np.array([t], dtype=float),
+                                np.concatenate([q, dq]).astype(float),
+                                np.ascontiguousarray(ddq, dtype=float), out)
+            return out[0], self.actuation(t, q, dq)
         with np.errstate(all="ignore"):
             arrays = np.broadcast_arrays(np.asarray(t, dtype=float),
                                          *(np.asarray(v, dtype=float) for v in (*q, *dq, *ddq)))
-            shape, n = arrays[0].shape, self.n
+            shape = arrays[0].shape
             columns = np.stack([a.reshape(-1) for a in arrays[1:]], axis=1)   # (count, 3n)
             count = len(columns)
             out = np.empty((count, n))

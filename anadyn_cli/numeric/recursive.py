@@ -308,6 +308,8 @@ class Tracer:
         self.t = Ex.atom("_t")
         self._frames = None
         self._joint = None
+        #: the actuators' efforts as inputs (atoms _e0, _e1, ...) instead of their laws
+        self.given_efforts: list[Ex] | None = None
 
     # joint maps --------------------------------------------------------------
     def joint_maps(self):
@@ -408,11 +410,14 @@ class Tracer:
         return out
 
     def actuation(self) -> list[Ex]:
-        """Joint efforts of the actuators under the control laws."""
+        """Joint efforts of the actuators: under the control laws, or
+        ``given_efforts`` when set."""
         plan, P = self.plan, self.P
         out = [ZERO] * len(plan.moving)
         for k, j in enumerate(plan.actuator_joint):
-            out[j] = out[j] + P.emit(to_ex(P, plan.laws[k]))
+            effort = (self.given_efforts[k] if self.given_efforts is not None
+                      else P.emit(to_ex(P, plan.laws[k])))
+            out[j] = out[j] + effort
         return out
 
     def efforts(self) -> list[Ex]:
@@ -864,6 +869,22 @@ def trace_accelerations(pl: Plan, with_factor: bool = False):
     return (traced, fac) if with_factor else traced
 
 
+def trace_driven(pl: Plan) -> Traced:
+    """ddq solving M ddq = F + B e for given actuator efforts e (atoms _e0, ...):
+    the direct dynamics that ``inverse``'s round trip drives with its efforts
+    (CRBA + sparse Cholesky)."""
+    m = len(pl.actuator_joint)
+    P = Program()
+    with P:
+        T = Tracer(pl, P)
+        T.given_efforts = [Ex.atom(f"_e{k}") for k in range(m)]
+        M = T.mass_matrix()
+        G = [P.emit(-x) for x in T.rnea(None, actuators=True)]
+        ddq = solve(P, cholesky(P, M), G)
+    return _finish("driven_accelerations", state_args(pl.n) + [f"_e{k}" for k in range(m)],
+                   P, {"ddq": ddq})
+
+
 def trace_aba(pl: Plan) -> Traced | None:
     """ddq by the articulated-body algorithm (None: J not constant and invertible)."""
     P = Program()
@@ -1033,11 +1054,12 @@ def forward(pl: Plan) -> Generated:
 
 
 def complete(gen: Generated) -> Generated:
-    """``gen`` (from ``forward``) with the Jacobian, M F B, the efforts, the
-    inverse dynamics, the actuation matrix and the potential."""
+    """``gen`` (from ``forward``) with the Jacobian, the driven accelerations,
+    M F B, the efforts, the inverse dynamics, the actuation matrix and the
+    potential."""
     pl = gen.plan
     functions = {**gen.functions, "dynamics_jacobian": trace_jacobian(pl),
-                 "mfb": trace_mfb(pl), "efforts": trace_efforts(pl),
+                 "driven_accelerations": trace_driven(pl), "mfb": trace_mfb(pl), "efforts": trace_efforts(pl),
                  "inverse_dynamics": trace_inverse(pl), "actuation": trace_actuation(pl),
                  "potential": trace_potential(pl)}
     return Generated(pl, functions, gen.factor)
@@ -1056,6 +1078,8 @@ DOCS = {
                      "costs fewer operations; scalar floats).",
     "dynamics_jacobian": "M and K = -dID/d[q, dq] at fixed ddq = [dG/dq - (dM/dq) ddq | dG/ddq]; "
                          "d(ddq)/dx = M^-1 K (scalar).",
+    "driven_accelerations": "ddq solving M(q) ddq = F + B e for given actuator efforts e "
+                            "(CRBA, sparse Cholesky; scalar floats).",
     "efforts": "Actuator efforts under the control laws (vectorized).",
     "mfb": "M, F and B of M ddq = F + B tau (vectorized).",
     "inverse_dynamics": "ID = M ddq - F by the recursive Newton-Euler algorithm, O(n) "
@@ -1074,6 +1098,7 @@ def module_source(gen: Generated, header: str = "") -> str:
     names = {f"_q{k}": c for k, c in enumerate(pl.coordinates)}
     names.update({f"_u{k}": "d" + c for k, c in enumerate(pl.coordinates)})
     names.update({f"_w{k}": "dd" + c for k, c in enumerate(pl.coordinates)})
+    names.update({f"_e{k}": e for k, e in enumerate(pl.efforts)})
     names["_t"] = "t"
     lines = [f"# {line}" for line in header.splitlines()] + [PY_HEADER, VEC_HEADER]
     for name, tr in gen.functions.items():

@@ -65,11 +65,6 @@ class InverseDynamics:
         self.n = model.n
         self.m = len(model.effort_names)
 
-    def matrices(self, t, q, dq):
-        """M (..., n, n), F (..., n), B (..., n, m) at times ``t`` (shape ...) and
-        states with the coordinates last."""
-        return self.model.mfb(t, np.moveaxis(q, -1, 0), np.moveaxis(dq, -1, 0))
-
     def demand(self, t, q, dq, ddq):
         """(M ddq - F (..., n), B (..., n, m)) with the coordinates last."""
         return self.model.demand(t, *(np.moveaxis(v, -1, 0) for v in (q, dq, ddq)))
@@ -216,7 +211,7 @@ def growth_rates(dynamics: InverseDynamics, times: np.ndarray) -> np.ndarray:
     A step-length estimate for the round trip only; the Jacobian is taken by central
     differences of x' = [dq, M^-1 (F + B tau)] at the prescribed states.
     """
-    n, mfb = dynamics.n, dynamics.matrices
+    n, driven = dynamics.n, dynamics.model.driven_accelerations
     rates = np.empty(len(times))
     for i, moment in enumerate(times):
         q, dq, _ = dynamics.motion(float(moment))
@@ -228,9 +223,7 @@ def growth_rates(dynamics: InverseDynamics, times: np.ndarray) -> np.ndarray:
             shifted = [x.copy(), x.copy()]
             shifted[0][k] += h
             shifted[1][k] -= h
-            (Ma, Fa, Ba), (Mb, Fb, Bb) = (mfb(moment, y[:n], y[n:]) for y in shifted)
-            J[n:, k] = (np.linalg.solve(Ma, Fa + Ba @ tau)
-                        - np.linalg.solve(Mb, Fb + Bb @ tau)) / (2 * h)
+            J[n:, k] = (driven(moment, shifted[0], tau) - driven(moment, shifted[1], tau)) / (2 * h)
         rates[i] = np.linalg.eigvals(J).real.max()
     return rates
 
@@ -258,7 +251,7 @@ def round_trip(result: InverseResult, tolerance: float = DEFAULT_TOLERANCE,
     ``segment`` (s) overrides the automatic length.
     """
     dynamics, n, t = result.dynamics, result.dynamics.n, result.t
-    mfb, effort_at = dynamics.matrices, dynamics.effort_at
+    driven, effort_at = dynamics.model.driven_accelerations, dynamics.effort_at
     start = time.perf_counter()
     samples = np.linspace(t[0], t[-1], GROWTH_SAMPLES)
     with np.errstate(all="ignore"):
@@ -279,8 +272,7 @@ def round_trip(result: InverseResult, tolerance: float = DEFAULT_TOLERANCE,
 
     def rhs(moment, x):
         """x' = [dq, M^-1 (F + B tau(t))], tau the computed efforts at this t."""
-        M, F, B = mfb(moment, x[:n], x[n:])
-        return np.concatenate([x[n:], np.linalg.solve(M, F + B @ effort_at(moment))])
+        return np.concatenate([x[n:], driven(moment, x, effort_at(moment))])
 
     problem = Problem(rhs, names=result.dynamics.model.state_names())
     error = np.zeros_like(result.q)
