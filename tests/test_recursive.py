@@ -696,3 +696,19 @@ def test_non_smooth_control_laws(repo, tmp_path, monkeypatch):
         fast = native.numeric_model(info, code, c_text, how="wait")
         assert isinstance(fast, native.NativeModel), fast.native_note
         assert np.array_equal(fast.jacobian(0, x), slow.jacobian(0, x))
+
+
+def test_the_c_source_is_the_same_in_every_process(repo):
+    """The library is named by a hash of its C text: two processes (other string
+    hashes) must write the same text for the same robot."""
+    import os
+    import subprocess
+    import sys
+    code = ("import hashlib\nfrom anadyn_cli import load_robot\n"
+            "from anadyn_cli.numeric import native, recursive\n"
+            f"gen = recursive.generate(load_robot({str(repo / 'robots/rrt.yaml')!r}))\n"
+            "print(hashlib.sha256(native.c_source(gen).encode()).hexdigest())")
+    digests = {subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              check=True, env={**os.environ, "PYTHONHASHSEED": seed}).stdout
+               for seed in ("1", "2")}
+    assert len(digests) == 1 and len(digests.pop().strip()) == 64

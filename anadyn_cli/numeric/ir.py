@@ -441,19 +441,24 @@ class _PyPrinter:
     def statements(self, statements: list[Statement], indent: str = "    ") -> list[str]:
         lines = []
         for s in statements:
-            if s.kind == "sum":
-                lines.append(f"{indent}{s.name} = {python_sum(s.payload)}")
-            elif s.kind == "call":
-                function, atom = s.payload
-                text = f"1.0/{atom}" if function == "recip" else f"{PY_CALLS[function]}({atom})"
-                lines.append(f"{indent}{s.name} = {text}")
-            elif s.kind == "sympy":
-                lines.append(f"{indent}{s.name} = {self.sympy.doprint(s.payload)}")
-            else:
+            if s.kind == "check":
                 atom, message = s.payload
                 lines.append(f"{indent}if {atom} <= 0.0:")
                 lines.append(f"{indent}    raise _singular({message!r})")
+            else:
+                lines.append(f"{indent}{s.name} = {_value(s, PY_CALLS, self.sympy.doprint)}")
         return lines
+
+
+def _value(s: Statement, calls: dict, sympy_text) -> str:
+    """The right-hand side of a sum, call or SymPy statement (``calls``: the
+    target language's name of each function; ``sympy_text``: its printer)."""
+    if s.kind == "sum":
+        return python_sum(s.payload)
+    if s.kind == "call":
+        function, atom = s.payload
+        return f"1.0/{atom}" if function == "recip" else f"{calls[function]}({atom})"
+    return sympy_text(s.payload)
 
 
 def python_lines(statements: list[Statement], vectorized: bool) -> list[str]:
@@ -478,25 +483,26 @@ def _c_printer():
 def c_lines(statements: list[Statement], indent: str = "    ",
             fail: str = "return 1;") -> list[str]:
     """C99 statements (``double`` locals); a failed check runs ``fail``."""
-    printer = _c_printer()
     lines = []
     for s in statements:
-        if s.kind == "sum":
-            lines.append(f"{indent}const double {s.name} = {python_sum(s.payload)};")
-        elif s.kind == "call":
-            function, atom = s.payload
-            text = f"1.0/{atom}" if function == "recip" else f"{function}({atom})"
-            lines.append(f"{indent}const double {s.name} = {text};")
-        elif s.kind == "sympy":
-            text = printer.doprint(s.payload)
-            if "Not supported" in text:
-                raise ValueError(f"no C form for {s.payload}")
-            text = " ".join(text.split())          # a ternary printed over several lines
-            lines.append(f"{indent}const double {s.name} = {text};")
-        else:
+        if s.kind == "check":
             atom, _ = s.payload
             lines.append(f"{indent}if ({atom} <= 0.0) {fail}")
+        else:
+            lines.append(f"{indent}const double {s.name} = {_value(s, C_CALLS, _c_text)};")
     return lines
+
+
+#: C's names of the functions of call statements (C99 <math.h>)
+C_CALLS = {"sin": "sin", "cos": "cos", "sqrt": "sqrt", "tanh": "tanh"}
+
+
+def _c_text(expr: sp.Expr) -> str:
+    """A SymPy expression in C99, on one line; ValueError if it has no C form."""
+    text = _c_printer().doprint(expr)
+    if "Not supported" in text:
+        raise ValueError(f"no C form for {expr}")
+    return " ".join(text.split())          # a ternary printed over several lines
 
 
 def c_expr(value: Ex) -> str:

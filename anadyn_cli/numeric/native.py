@@ -93,7 +93,7 @@ def _chunked(name: str, params: str, inputs: dict[str, str], statements, outputs
         slot(a)
     for k, chunk in enumerate(chunks):
         for s in chunk:
-            for a in s.atoms():
+            for a in sorted(s.atoms()):        # sorted: the same C text in every process
                 if home.get(a, k) != k:
                     slot(a)
     for _, value in outputs:

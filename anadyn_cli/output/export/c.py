@@ -12,7 +12,8 @@ from __future__ import annotations
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
-from .model import Block, ExportModel, Named, block, local_names, row_major, temporary_prefix
+from .model import (Block, ExportModel, Named, block, inputs_used, local_names, row_major,
+                    temporary_prefix)
 
 C_KEYWORDS = {
     "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
@@ -152,24 +153,13 @@ def _leaf(model: ExportModel, names: dict, prefix: str, signature: str,
     blk: Block = block({k: row_major(v) for k, v in outputs.items()}, names, prefix)
     printer = _Printer(blk.names)
     lines = [signature, "{"]
-    if model.symbolic:
-        used_params = [p for p in model.parameters if names[p.symbol] in blk.used]
-        if used_params:
-            lines.append(f"    if (p == 0) p = &{model.name}_default_params;")
-    used_arrays = set()
-    for group, array in ((model.coordinates, "q"), (model.rates, "dq"),
-                         (model.accelerations, "ddq")):
-        for quantity in group:
-            local = names[quantity.symbol]
-            if local in blk.used:
-                lines.append(f"    const double {local} = {array}[{quantity.index}];")
-                used_arrays.add(array)
-    if model.symbolic:
-        for p in model.parameters:
-            local = names[p.symbol]
-            if local in blk.used:
-                lines.append(f"    const double {local} = p->{local};")
-                used_arrays.add("p")
+    states, parameters = inputs_used(model, names, blk)
+    parameters = parameters if model.symbolic else []
+    if parameters:
+        lines.append(f"    if (p == 0) p = &{model.name}_default_params;")
+    lines += [f"    const double {local} = {array}[{index}];" for local, array, index in states]
+    lines += [f"    const double {local} = p->{local};" for local, _ in parameters]
+    used_arrays = {array for _, array, _ in states} | ({"p"} if parameters else set())
     if "t" in blk.used:
         used_arrays.add("t")
     for array in arrays:

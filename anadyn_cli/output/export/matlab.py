@@ -9,7 +9,8 @@ from __future__ import annotations
 import sympy as sp
 from sympy.printing.octave import OctaveCodePrinter
 
-from .model import ExportModel, Named, block, local_names, row_major, temporary_prefix, wrap
+from .model import (ExportModel, Named, block, inputs_used, local_names, row_major,
+                    temporary_prefix, wrap)
 
 MATLAB_KEYWORDS = {
     "break", "case", "catch", "classdef", "continue", "else", "elseif", "end", "for",
@@ -75,16 +76,9 @@ def files(model: ExportModel) -> dict[str, str]:
         lines = [f"function {outvar} = {N}_{fname}({args})",
                  *_help(f"{N}_{fname}", summary, doc + common)]
         lines += default_p(nargs)
-        for group, array in ((model.coordinates, "q"), (model.rates, "dq"),
-                             (model.accelerations, "ddq")):
-            for quantity in group:
-                local = names[quantity.symbol]
-                if local in blk.used:
-                    lines.append(f"  {local} = {array}({quantity.index + 1});")
-        for par in model.parameters:
-            local = names[par.symbol]
-            if local in blk.used:
-                lines.append(f"  {local} = p.{names[par.symbol]};")
+        states, parameters = inputs_used(model, names, blk)
+        lines += [f"  {local} = {array}({index + 1});" for local, array, index in states]
+        lines += [f"  {local} = p.{local};" for local, _ in parameters]
         for temp, expr in blk.temporaries:
             lines.append(f"  {temp} = {printer.doprint(expr)};")
         rows, cols = matrix.shape

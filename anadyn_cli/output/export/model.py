@@ -263,6 +263,19 @@ class Block:
     names: dict                      # symbol -> local name, for the printer
 
 
+def inputs_used(model: "ExportModel", names: dict, blk: Block):
+    """What ``blk`` reads, in order: (local name, array, 0-based index) of the
+    coordinates (array "q"), rates ("dq") and accelerations ("ddq"), and (local
+    name, Quantity) of the parameters; each exporter writes their unpacking."""
+    states = [(names[quantity.symbol], array, quantity.index)
+              for group, array in ((model.coordinates, "q"), (model.rates, "dq"),
+                                   (model.accelerations, "ddq"))
+              for quantity in group if names[quantity.symbol] in blk.used]
+    parameters = [(names[par.symbol], par) for par in model.parameters
+                  if names[par.symbol] in blk.used]
+    return states, parameters
+
+
 class Named:
     """Printer mix-in: symbols in ``names`` print as their local names."""
 

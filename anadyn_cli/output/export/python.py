@@ -16,7 +16,8 @@ import textwrap
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-from .model import ExportModel, Named, block, local_names, row_major, temporary_prefix
+from .model import (ExportModel, Named, block, inputs_used, local_names, row_major,
+                    temporary_prefix)
 
 #: arguments and module-level names the generated functions use
 ARGUMENTS = {"t", "q", "dq", "ddq", "p", "x", "tau", "math", "PARAMETERS"}
@@ -79,16 +80,9 @@ def _leaf(model: ExportModel, names: dict, prefix: str, name: str, args: str, do
     blk = block({k: row_major(v) for k, v in outputs.items()}, names, prefix)
     printer = _Printer(blk.names)
     lines = [f"def {name}({args}):", f'    """{doc}"""']
-    for group, array in ((model.coordinates, "q"), (model.rates, "dq"),
-                         (model.accelerations, "ddq")):
-        for quantity in group:
-            local = names[quantity.symbol]
-            if local in blk.used:
-                lines.append(f"    {local} = {array}[{quantity.index}]")
-    for p in model.parameters:
-        local = names[p.symbol]
-        if local in blk.used:
-            lines.append(f"    {local} = p[{p.name!r}]")
+    states, parameters = inputs_used(model, names, blk)
+    lines += [f"    {local} = {array}[{index}]" for local, array, index in states]
+    lines += [f"    {local} = p[{par.name!r}]" for local, par in parameters]
     for temp, expr in blk.temporaries:
         lines.append(f"    {temp} = {printer.doprint(expr)}")
     returned = []
