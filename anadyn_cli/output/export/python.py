@@ -117,21 +117,19 @@ def source(model: ExportModel) -> str:
         lines.append("PARAMETERS = {" + ", ".join(f"{q.name!r}: {q.value!r}"
                                                   for q in model.parameters) + "}")
     lines += ["", ""]
-    lines += _leaf(model, names, prefix, "mass_matrix", f"q{p}",
-                   "M(q): mass matrix, n x n (list of rows), symmetric positive definite.",
-                   {"M": model.M}, {"M": "matrix"}) + ["", ""]
-    lines += _leaf(model, names, prefix, "forcing", f"t, q, dq{p}",
-                   "F(t, q, dq): gravity, velocity products, joint forces and loads (n).",
-                   {"F": model.F}, {"F": "vector"}) + ["", ""]
-    lines += _leaf(model, names, prefix, "input_matrix", f"q{p}",
-                   "B(q): input matrix, n x m (list of rows).",
-                   {"B": model.B}, {"B": "matrix"}) + ["", ""]
-    lines += _leaf(model, names, prefix, "efforts", f"t, q, dq{p}",
-                   "tau(t, q, dq): actuator efforts under the robot file's control laws (m).",
-                   {"tau": model.laws}, {"tau": "vector"}) + ["", ""]
-    lines += _leaf(model, names, prefix, "_partials", f"t, q, dq, ddq{p}",
-                   "K = [dG/dq - (dM/dq) ddq | dG/d(dq)], G = F + B tau(t, q, dq): n x 2n.",
-                   {"K": model.K}, {"K": "matrix"}) + ["", ""]
+    for name, args, doc, key, matrix, shape in (
+            ("mass_matrix", "q", "M(q): mass matrix, n x n (list of rows), symmetric positive "
+             "definite.", "M", model.M, "matrix"),
+            ("forcing", "t, q, dq", "F(t, q, dq): gravity, velocity products, joint forces and "
+             "loads (n).", "F", model.F, "vector"),
+            ("input_matrix", "q", "B(q): input matrix, n x m (list of rows).", "B", model.B,
+             "matrix"),
+            ("efforts", "t, q, dq", "tau(t, q, dq): actuator efforts under the robot file's "
+             "control laws (m).", "tau", model.laws, "vector"),
+            ("_partials", "t, q, dq, ddq", "K = [dG/dq - (dM/dq) ddq | dG/d(dq)], G = F + B "
+             "tau(t, q, dq): n x 2n.", "K", model.K, "matrix")):
+        lines += _leaf(model, names, prefix, name, f"{args}{p}", doc, {key: matrix},
+                       {key: shape}) + ["", ""]
     lines += textwrap.dedent(f'''\
         def accelerations(t, q, dq, tau{p}):
             """ddq solving M(q) ddq = F(t, q, dq) + B(q) tau for the given efforts tau."""
