@@ -5,19 +5,16 @@ from pathlib import Path
 
 import typer
 
-from .common import (Formulation, FormulationOpt, OutOpt, RobotArg, TEndOpt, integrator_name,
-                     out_dir, time_line)
+from .common import (DtOpt, Formulation, FormulationOpt, MethodOpt, OutOpt, RobotArg, TEndOpt,
+                     integrator_name, out_dir, time_line)
 
 
 def animate(
     robot: Path = RobotArg,
     formulation: Formulation = FormulationOpt,
-    method: str = typer.Option(None, help="Integrator (any case): auto, odeint, RK45, RK23, "
-                                          "DOP853, Radau, BDF, LSODA [default: from the file, "
-                                          "else auto]."),
+    method: str = MethodOpt,
     t_end: float = TEndOpt,
-    dt: float = typer.Option(None, "--dt", help="Output step in s [default: from the file, "
-                                                "else 0.01]."),
+    dt: float = DtOpt,
     frames: int = typer.Option(150, "--frames", help="Most frames in the animation."),
     mp4: bool = typer.Option(True, help="Also write animate.mp4 when ffmpeg is on the PATH."),
     out: Path = OutOpt,

@@ -5,8 +5,8 @@ from pathlib import Path
 
 import typer
 
-from .common import (AtolOpt, Formulation, FormulationOpt, OutOpt, RobotArg, RtolOpt, TEndOpt,
-                     out_dir, time_line)
+from .common import (AtolOpt, DtOpt, Formulation, FormulationOpt, OutOpt, RobotArg, RtolOpt,
+                     TEndOpt, out_dir, time_line)
 
 
 def check(
@@ -14,8 +14,7 @@ def check(
     rtol: float = RtolOpt,
     atol: float = AtolOpt,
     t_end: float = TEndOpt,
-    dt: float = typer.Option(None, "--dt", help="Output step in s [default: from the file, "
-                                                "else 0.01]."),
+    dt: float = DtOpt,
     max_condition: float = typer.Option(1e8, "--max-condition",
                                         help="Threshold on the mass matrix's condition "
                                              "number after diagonal scaling."),

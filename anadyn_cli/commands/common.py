@@ -73,6 +73,9 @@ def out_dir(out: Path | None, robot_name: str) -> Path:
 RtolOpt = typer.Option(None, help="Relative tolerance [default: from the file, else 1e-10].")
 AtolOpt = typer.Option(None, help="Absolute tolerance [default: from the file, else 1e-12].")
 TEndOpt = typer.Option(None, "--t-end", help="Horizon in s [default: from the file, else 10].")
+DtOpt = typer.Option(None, "--dt", help="Output step in s [default: from the file, else 0.01].")
+MethodOpt = typer.Option(None, help="Integrator (any case): auto, odeint, RK45, RK23, DOP853, "
+                                    "Radau, BDF, LSODA [default: from the file, else auto].")
 
 FormulationOpt = typer.Option(Formulation.kane, "--formulation", case_sensitive=False,
                               help="Formulation to integrate.")

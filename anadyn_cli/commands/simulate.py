@@ -5,21 +5,19 @@ from pathlib import Path
 
 import typer
 
-from .common import (AtolOpt, Formulation, FormulationOpt, OutOpt, PlotFormat, PlotFormatOpt,
-                     RobotArg, RtolOpt, TEndOpt, integrator_name, out_dir, time_line)
+from .common import (AtolOpt, DtOpt, Formulation, FormulationOpt, MethodOpt, OutOpt,
+                     PlotFormat, PlotFormatOpt, RobotArg, RtolOpt, TEndOpt, integrator_name,
+                     out_dir, time_line)
 
 
 def simulate(
     robot: Path = RobotArg,
     formulation: Formulation = FormulationOpt,
-    method: str = typer.Option(None, help="Integrator (any case): auto, odeint, RK45, RK23, "
-                                          "DOP853, Radau, BDF, LSODA [default: from the file, "
-                                          "else auto]."),
+    method: str = MethodOpt,
     rtol: float = RtolOpt,
     atol: float = AtolOpt,
     t_end: float = TEndOpt,
-    dt: float = typer.Option(None, "--dt", help="Output step in s [default: from the file, "
-                                                "else 0.01]."),
+    dt: float = DtOpt,
     out: Path = OutOpt,
     plot: bool = typer.Option(True, help="Write simulate.png (or .svg, .pdf)."),
     plot_format: PlotFormat = PlotFormatOpt,
