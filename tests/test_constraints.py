@@ -224,14 +224,18 @@ def test_constraint_drift_stays_below_1e_8_over_10_s_at_default_settings(robot, 
 
 def test_the_stabilization_is_what_keeps_the_drift_down():
     """Without it the integrator's local errors pile up along the constraints (the
-    test above can fail)."""
+    test above can fail).  The point is the ratio: the stabilized drift is at least
+    twenty times smaller than the unstabilized one (measured: 6.4e-9 to 1.8e-8
+    unstabilized against ~5.6e-11 stabilized, a ratio of 114 to 320 depending on
+    the machine's libm), so the assertion holds on every machine, not just where
+    the absolute drift happens to be large."""
     drifts = []
     for gamma in (0.0, constrained.STABILIZATION):
         model = numeric_model(ROBOTS / "fourbar.yaml", "kane")
         model.stabilization = gamma
         result = simulate_service.simulate(model)
         drifts.append(result.constraints.max_position_drift)
-    assert drifts[0] > 1e-8 > 100 * drifts[1]
+    assert drifts[0] > 20 * drifts[1] > 0
 
 
 # ----------------------------------------------------------------------------
