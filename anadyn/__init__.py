@@ -1,9 +1,17 @@
 """anadyn: analytical dynamics of robot arms (the import name of ``anadyn_cli``).
 
-See ``anadyn_cli.api`` for the functions and the README's "Python API".
+Every command is a function here (``anadyn_cli.api``); ``import_urdf`` is
+``anadyn import`` (``import`` is a Python keyword).
 """
 from anadyn_cli import AnadynError, CheckFailed, ModelError, NumericalError, __version__
-from anadyn_cli.api import check, compare, derive, inverse, load, numeric_model, simulate
+from anadyn_cli.api import (accuracy, animate, batch, check, compare, derive, equations, export,
+                            import_urdf, inverse, linearize, load, numeric_model, optimize,
+                            robots, show, simulate, sweep)
+from anadyn_cli.errors import SettingError
 
-__all__ = ["load", "derive", "numeric_model", "simulate", "inverse", "check", "compare",
-           "AnadynError", "ModelError", "CheckFailed", "NumericalError", "__version__"]
+__all__ = ["load", "derive", "numeric_model", "equations", "simulate", "inverse", "check",
+           "compare", "accuracy", "export", "linearize", "optimize", "sweep", "batch", "show",
+           "animate",
+           "import_urdf", "robots",
+           "AnadynError", "ModelError", "SettingError", "CheckFailed", "NumericalError",
+           "__version__"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import gc
 import os
+import signal
 import sys
 
 import typer
@@ -37,19 +38,18 @@ def _group(version: bool = typer.Option(False, "--version", "-V", callback=_show
     """Analytical dynamics of robot arms (every command takes -h / --help)."""
 
 
-class _Interrupted(Exception):
-    """Ctrl-C inside a command.  Typer turns a KeyboardInterrupt into a silent
-    exit 130 before ``main`` could see it; this passes through typer untouched."""
-
-
 def _interruptible(command):
-    """``command`` with Ctrl-C raised as ``_Interrupted`` (signature kept for typer)."""
+    """``command`` with a KeyboardInterrupt raised inside it (anadyn's handlers raise
+    ``progress.Interrupted``; a KeyboardInterrupt comes from elsewhere) passed on as
+    ``Interrupted``: typer would turn it into a silent exit 130 (signature kept)."""
+    from . import progress
+
     @functools.wraps(command)
     def run(*args, **kwargs):
         try:
             return command(*args, **kwargs)
         except KeyboardInterrupt:
-            raise _Interrupted() from None
+            raise progress.Interrupted(signal.SIGINT) from None
     return run
 
 
@@ -58,21 +58,35 @@ def _register_commands() -> None:
     if app.registered_commands:
         return
     from .commands import COMMANDS
+    from .commands.common import check_options
 
     for command in COMMANDS:
-        app.command(name=getattr(command, "cli_name", None))(_interruptible(command))
+        app.command(name=getattr(command, "cli_name", None))(
+            _interruptible(check_options(command)))
 
 
 def main(argv: list[str] | None = None) -> int:
     """Console entry point; returns the process exit code.
 
     Typer itself reports usage errors (exit 2) and --help; anadyn's own
-    errors become one line on stderr with their exit code.
+    errors become one line on stderr with their exit code.  SIGINT and
+    SIGTERM stop the command (``progress.stop_on_signals``): one line, exit
+    130 or 143.
     """
     from . import progress
 
-    _register_commands()
+    restore = progress.stop_on_signals()
     try:
+        return _main(argv)
+    finally:
+        restore()
+
+
+def _main(argv: list[str] | None) -> int:
+    from . import progress
+
+    try:
+        _register_commands()
         with progress.session():          # what long commands are doing, on stderr
             app(args=argv, prog_name="anadyn")
     except SystemExit as done:
@@ -84,10 +98,10 @@ def main(argv: list[str] | None = None) -> int:
     except AnadynError as err:
         typer.echo(f"anadyn: error: {err}", err=True)
         return err.exit_code
-    except (KeyboardInterrupt, _Interrupted):
-        typer.echo("anadyn: interrupted; results written before the interruption are "
-                   "complete, none is half-written", err=True)
-        return 130
+    except (KeyboardInterrupt, progress.Interrupted) as stop:
+        line, code = progress.interruption(getattr(stop, "signum", signal.SIGINT))
+        typer.echo(line, err=True)
+        return code
     except Exception as err:                  # a bug: one line, traceback on request
         if os.environ.get("ANADYN_DEBUG"):
             raise
@@ -113,6 +127,8 @@ def run() -> None:
     gc.freeze()                                 # what the imports made: never scanned
     gc.set_threshold(200_000, 30, 30)
     code = main()
+    for signum in (signal.SIGINT, signal.SIGTERM):     # done: a late signal changes nothing
+        signal.signal(signum, signal.SIG_IGN)
     try:
         sys.stdout.flush()
         sys.stderr.flush()

@@ -22,14 +22,26 @@ Three modes, chosen once per command (``session``, opened by the CLI):
 
 Outside a session (anadyn used as a library) tasks cost nothing and print
 nothing.
+
+Interruptions: ``stop_on_signals`` (the command line installs it before
+anything else) makes SIGINT and SIGTERM raise ``Interrupted`` in the main
+thread, once: a BaseException, so that every ``finally`` runs (workers and
+jobs are stopped there) and neither typer nor click turns it into their own
+exit; later signals are ignored while that unwinds.  Inside
+``uninterrupted()`` (a command writing the files of one result) a signal waits
+until the block ends, so a result's files are all written or none is.
+``interruption`` gives the one line and the exit code, 128 + the signal's
+number (130, 143).
 """
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import threading
 import time
 from contextlib import contextmanager
+from typing import Callable
 
 LIVE_DELAY = 0.3       # s a task runs before its live line appears
 PLAIN_DELAY = 2.0      # s a task runs before its first plain line
@@ -235,3 +247,66 @@ class _Session:
             self._hide()
         if self.thread is not None:
             self.thread.join(timeout=1.0)
+
+
+# ----------------------------------------------------------------------------
+# interruptions
+# ----------------------------------------------------------------------------
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class Interrupted(BaseException):
+    """SIGINT or SIGTERM (``signum``) stopped the command."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+#: the first signal; the one held by open uninterrupted() blocks, and how many are open
+_signals = {"received": None, "held": None, "deferring": 0}
+
+
+def _on_signal(signum: int, frame) -> None:
+    if _signals["received"] is not None:
+        return                                     # already stopping
+    _signals["received"] = signum
+    if _signals["deferring"]:
+        _signals["held"] = signum
+    else:
+        raise Interrupted(signum)
+
+
+def stop_on_signals() -> Callable[[], None]:
+    """Make SIGINT and SIGTERM raise ``Interrupted`` (in the main thread; elsewhere a
+    no-op); returns what puts the earlier handlers back."""
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    earlier = {signum: signal.signal(signum, _on_signal) for signum in SIGNALS}
+    _signals.update(received=None, held=None)
+
+    def restore() -> None:
+        for signum, handler in earlier.items():
+            signal.signal(signum, handler)
+    return restore
+
+
+@contextmanager
+def uninterrupted():
+    """The block runs to its end; a signal received meanwhile stops the command after it."""
+    _signals["deferring"] += 1
+    try:
+        yield
+    finally:
+        _signals["deferring"] -= 1
+    if not _signals["deferring"] and _signals["held"] is not None:
+        signum, _signals["held"] = _signals["held"], None
+        raise Interrupted(signum)
+
+
+def interruption(signum: int) -> tuple[str, int]:
+    """The one line on stderr and the exit code (128 + ``signum``) of a stopped command."""
+    what = "interrupted" if signum == signal.SIGINT else \
+        f"stopped by {signal.Signals(signum).name}"
+    return (f"anadyn: {what}; results written before the interruption are complete, "
+            "none is half-written"), 128 + signum

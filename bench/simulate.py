@@ -295,7 +295,7 @@ def anadyn_setup(name):
     from anadyn_cli.numeric.build import numeric_model
     from anadyn_cli.numeric.settings import output_grid, resolve
 
-    model = numeric_model(ROOT / "robots" / f"{name}.yaml", "kane")
+    model = numeric_model(ROOT / "robots" / f"{name}.yaml", evaluator="recursive")
     settings = resolve(model.info)
     grid = output_grid(settings.t_end, settings.output_step)
     return model.info, model, settings, grid, model.initial_state()

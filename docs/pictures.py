@@ -1,4 +1,4 @@
-"""Regenerate the README's pictures (small PNGs in docs/):
+"""Regenerate the documentation's pictures (small PNGs in docs/images/):
 
     python docs/pictures.py
 
@@ -24,13 +24,13 @@ from anadyn_cli.output.plots import figure_bytes
 from anadyn_cli.services import show, simulate
 
 ROOT = Path(__file__).resolve().parent.parent
-DOCS = ROOT / "docs"
+IMAGES = ROOT / "docs" / "images"
 
 
 def save(image: Image.Image, name: str) -> None:
     small = image.convert("RGB").quantize(colors=128, method=Image.Quantize.MEDIANCUT)
-    small.save(DOCS / name, optimize=True)
-    print(f"{name}: {image.size[0]}x{image.size[1]}, {(DOCS / name).stat().st_size // 1024} KiB")
+    small.save(IMAGES / name, optimize=True)
+    print(f"{name}: {image.size[0]}x{image.size[1]}, {(IMAGES / name).stat().st_size // 1024} KiB")
 
 
 def png(figure, dpi: int) -> Image.Image:

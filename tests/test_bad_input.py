@@ -29,7 +29,7 @@ import pytest
 
 import anadyn_cli.model.loader  # noqa: F401  (imports SymPy now, not inside a timed call)
 from anadyn_cli.cli import main
-from anadyn_cli.model import expressions, names, yamlsource
+from anadyn_cli.model import expressions, names, yamlschema
 
 ROBOTS = Path(__file__).resolve().parent.parent / "robots"
 RR = (ROBOTS / "rr.yaml").read_text()
@@ -136,7 +136,8 @@ CASES = [
          "output_step, method, rtol, atol"),
     case("unquoted-comma-splits-expression", rr("duration: 15,", "duration: max(10, 15),"),
          "{file}:34: trajectory.15): unknown key (a comma or colon inside {...} splits an "
-         "expression: quote it); allowed: kind, duration, from, to, expressions"),
+         "expression: quote it); allowed: kind, duration, from, to, expressions, points, "
+         "durations, shape"),
     # -- missing required keys ------------------------------------------------------
     case("missing-coordinates", without(RR, "coordinates:", "  q1: {initial: -pi/18}       "
                                         "# the text's q1(0); the inverse listing's pi/18 is a "
@@ -195,8 +196,8 @@ CASES = [
     case("type-actuator-text", rr("T12z: {joint: bar2}", "T12z: bar2"),
          "{file}:26: actuators.T12z: expected a mapping, got the text 'bar2'"),
     case("type-trajectory-kind", rr("kind: cycloidal", "kind: linear"),
-         "{file}:34: trajectory.kind: must be one of cycloidal, quintic, expression, got "
-         "'linear'"),
+         "{file}:34: trajectory.kind: must be one of cycloidal, quintic, expression, waypoints, "
+         "got 'linear'"),
     case("type-method", rr("output_step: 0.01}", "output_step: 0.01, method: rk4}"),
          "{file}:35: simulation.method: must be one of auto, odeint, RK45, RK23, DOP853, "
          "Radau, BDF, LSODA, got 'rk4'"),
@@ -463,7 +464,7 @@ CASES = [
     case("expression-too-long", rr("    mass: m2", "    mass: " + "+".join(["m2"] * 700)),
          "{file}:21: bodies[1].mass: expression longer than 2000 characters"),
     case("expression-nested-too-deeply", rr("    mass: m2", "    mass: " + "-" * 1500 + "m2"),
-         "{file}:21: bodies[1].mass: expression nested too deeply"),
+         "{file}:21: bodies[1].mass: expression too deeply nested (limit 100)"),
     case("parentheses-nested-too-deeply", rr("    mass: m2",
                                              "    mass: " + "(" * 300 + "m2" + ")" * 300),
          "{file}:21: bodies[1].mass: syntax error in '" + "(" * 57 + "...' at column 201: "
@@ -638,10 +639,10 @@ def timed(capsys, argv) -> tuple[float, int, str, str]:
 
 def test_file_over_the_size_cap_is_refused_within_a_second(tmp_path, capsys):
     filler = "# " + "x" * 78 + "\n"
-    text = RR + filler * (yamlsource.MAX_BYTES // len(filler) + 1)
+    text = RR + filler * (yamlschema.MAX_BYTES // len(filler) + 1)
     path = write(tmp_path, text, "big.yaml")
     size = path.stat().st_size
-    assert size > yamlsource.MAX_BYTES == 256 * 1024
+    assert size > yamlschema.MAX_BYTES == 256 * 1024
     elapsed, code, out, err = timed(capsys, ["equations", path])
     assert err == f"anadyn: error: {path}: file is {size} bytes, the limit is 262144\n"
     assert (code, out) == (2, "")
@@ -650,8 +651,8 @@ def test_file_over_the_size_cap_is_refused_within_a_second(tmp_path, capsys):
 
 def test_file_just_under_the_size_cap_is_read(tmp_path, capsys):
     """The cap is the limit, not a rough guess: padding up to it is still a robot."""
-    text = RR + "#" * (yamlsource.MAX_BYTES - len(RR.encode()) - 1) + "\n"
-    assert len(text.encode()) == yamlsource.MAX_BYTES
+    text = RR + "#" * (yamlschema.MAX_BYTES - len(RR.encode()) - 1) + "\n"
+    assert len(text.encode()) == yamlschema.MAX_BYTES
     code, out, err = run(capsys, ["equations", write(tmp_path, text, "rr.yaml")])
     assert (code, err) == (0, "") and out.startswith("# kane equations")
 
@@ -659,7 +660,7 @@ def test_file_just_under_the_size_cap_is_read(tmp_path, capsys):
 def test_text_over_the_size_cap_is_refused():
     from anadyn_cli import ModelError, robot_from_text
     with pytest.raises(ModelError, match=r"^big\.yaml: text longer than 262144 bytes$"):
-        robot_from_text(RR + "#" * yamlsource.MAX_BYTES, "big.yaml")
+        robot_from_text(RR + "#" * yamlschema.MAX_BYTES, "big.yaml")
 
 
 def billion_laughs(levels: int = 10, width: int = 10) -> str:
@@ -699,11 +700,11 @@ def test_deeply_nested_yaml_is_refused(tmp_path, capsys):
     assert (code, out, err) == (2, "", f"anadyn: error: {path}: YAML nested too deeply\n")
 
 
-# -- the names in the README, the expression module and names.py agree ---------------------
+# -- the names in the docs (reference/robot-file.md), the expression module and names.py agree
 def test_function_and_constant_names_agree():
     assert names.FUNCTION_NAMES == set(expressions.FUNCTIONS)
     assert names.CONSTANT_NAMES == set(expressions.CONSTANTS)
     assert names.FUNCTION_NAMES | names.CONSTANT_NAMES <= names.RESERVED_NAMES
-    readme = (ROBOTS.parent / "README.md").read_text()
-    listed = re.search(r"and the functions `([^`]*)`", readme)
+    reference = (ROBOTS.parent / "docs" / "reference" / "robot-file.md").read_text()
+    listed = re.search(r"and the functions `([^`]*)`", reference)
     assert listed and set(listed[1].split()) == names.FUNCTION_NAMES

@@ -34,7 +34,8 @@ def test_ci_config_covers_every_shipped_robot_with_every_command():
     robots = {str(p.relative_to(ROOT)) for p in (ROOT / "robots").glob("*.yaml")}
     covered = {(j.command, str(Path(j.robot).resolve().relative_to(ROOT))) for j in plan.jobs
                if j.expect.exit_code == 0}
-    assert covered == {(c, r) for c in batch.COMMANDS for r in robots}
+    judged = ("simulate", "inverse", "compare", "accuracy", "check")   # what ci.yaml judges
+    assert covered == {(c, r) for c in judged for r in robots}
     assert all(j.expect.paths for j in plan.jobs if j.expect.exit_code == 0)
 
 
@@ -57,7 +58,7 @@ def test_ci_config_passes(tmp_path, monkeypatch, capsys):
     suite = ET.parse(out / "junit.xml").getroot()
     assert suite.tag == "testsuite" and suite.get("tests") == str(jobs)
     assert suite.get("failures") == "0" and suite.find(".//failure") is None
-    for command in batch.COMMANDS:
+    for command in ("simulate", "inverse", "compare", "accuracy", "check"):
         assert (out / command / "rr" / f"{command}.json").is_file()
 
 
@@ -158,15 +159,16 @@ jobs:
     ("job: []\n", "1: job: unknown key; did you mean 'jobs'? allowed: description, "
                   "timeout, jobs"),
     ("jobs:\n  - {command: simulat, robot: RR}\n",
-     "2: jobs[0].command: must be one of simulate, inverse, compare, accuracy, check, "
-     "got 'simulat'"),
+     "2: jobs[0].command: must be one of simulate, inverse, compare, accuracy, check, sweep, "
+     "linearize, export, equations, show, animate, view, import, got 'simulat'"),
     ("jobs:\n  - command: simulate\n    robot: RR\n    expct: {}\n",
      "4: jobs[0].expct: unknown key; did you mean 'expect'? allowed: command, robot, name, "
      "options, expect, must_fail, timeout"),
     ("jobs:\n  - {command: simulate}\n", "2: jobs[0]: missing required key 'robot'"),
     ("jobs:\n  - {command: simulate, robot: nowhere.yaml}\n",
      "2: jobs[0].robot: no such file 'TMP/nowhere.yaml' (robot paths are relative to the "
-     "batch file's folder)"),
+     "batch file's folder) and no library robot of that name; `anadyn robots` lists the "
+     "library"),
     ("jobs:\n  - {command: simulate, robot: RR, options: [--out, x]}\n",
      "2: jobs[0].options: --out is set by the batch (OUT/<command>/<name>/); leave it out"),
     ("jobs:\n  - {command: simulate, robot: RR, options: [[1]]}\n",
@@ -184,7 +186,19 @@ jobs:
      "2: jobs[0].name: a job name is a letter or digit followed by up to 63 letters, "
      "digits, '_', '.' or '-', got 'a/b'"),
     ("timeout: -3\njobs:\n  - {command: simulate, robot: RR}\n",
-     "1: timeout: must be a positive number of seconds, got -3"),
+     "1: timeout: must be a number of seconds more than 0 and at most 604800 (a week), "
+     "got -3"),
+    ("jobs:\n  - {command: simulate, robot: RR, timeout: 1e7}\n",
+     "2: jobs[0].timeout: must be a number of seconds more than 0 and at most 604800 (a "
+     "week), got 1e+07"),
+    ("jobs:\n  - {command: simulate, robot: RR, options: [--, x]}\n",
+     "2: jobs[0].options: '--' is set by the batch (before the robot); leave it out"),
+    ("jobs:\n  - {command: import, robot: RR, options: {output: x.yaml}}\n",
+     "2: jobs[0].options: --output is set by the batch (OUT/<command>/<name>/); leave it out"),
+    ("jobs:\n  - {command: simulate, robot: no_such_robot}\n",
+     "2: jobs[0].robot: no such file 'TMP/no_such_robot' (robot paths are relative to the "
+     "batch file's folder) and no library robot of that name; `anadyn robots` lists the "
+     "library"),
 ])
 def test_config_mistakes_are_one_line_with_file_line_and_key(tmp_path, capsys, text, message):
     path = config(tmp_path, text)
@@ -210,8 +224,8 @@ jobs:
     assert job.expect == batch.Expectation(0, (("rows.0.max_error", 1e-6),),
                                            (("rows_on_grid", 2.0),), (("robot", "rr"),))
     assert job.timeout == 5 and job.name == "rr" and job.robot == str(RR)
-    assert job.argv(Path("o"))[1:] == ["-m", "anadyn_cli", "accuracy", str(RR), *job.options,
-                                       "--out", str(Path("o") / "accuracy" / "rr")]
+    assert job.argv(Path("o"))[1:] == ["-m", "anadyn_cli", "accuracy", *job.options,
+                                       "--out", str(Path("o") / "accuracy" / "rr"), "--", str(RR)]
 
 
 def test_lookup_follows_dotted_paths():
@@ -256,3 +270,130 @@ def test_progress_line_on_a_terminal_plain_lines_otherwise(monkeypatch):
     shown = screen.getvalue()
     assert "4/12 done, 0 running, 1 failed" in shown
     assert "[4/12] FAIL inverse rr2  2.5 s: exit code 1, expected 0" in shown   # kept
+
+
+# -- names, commands and reports that cannot go wrong (issues 22 and 23) ---------------------
+def test_robot_files_named_like_options_or_dots_stay_robots_in_their_folders(tmp_path, capsys):
+    """A robot named --help is passed after '--'; one named ...yaml (stem '..') would make
+    the job's folder OUT itself, so it needs a name."""
+    (tmp_path / "--help").write_text(RR.read_text())
+    (tmp_path / "...yaml").write_text(RR.read_text())
+    path = tmp_path / "batch.yaml"
+    path.write_text("jobs:\n  - {command: simulate, robot: ...yaml, options: [--no-plot]}\n")
+    out = tmp_path / "out"
+    assert main(["batch", str(path), "--out", str(out)]) == 2
+    assert capsys.readouterr().err == (
+        f"anadyn: error: {path}:2: jobs[0].robot: the file name '...yaml' makes no job name; "
+        "give the job a name (a letter or digit followed by letters, digits, '_', '.' or '-')\n")
+    assert not out.exists()
+    path.write_text("""\
+jobs:
+  - {command: simulate, robot: --help, options: [--no-plot, --t-end, 1], expect: {equal: {rows: 101}}}
+  - {command: simulate, robot: ...yaml, name: dots, options: [--no-plot, --t-end, 1]}
+""")
+    assert main(["batch", str(path), "--out", str(out)]) == 0, capsys.readouterr()
+    assert sorted(p.name for p in (out / "simulate").iterdir()) == ["dots", "help"]
+    assert (out / "simulate" / "help" / "simulate.json").is_file()
+    assert sorted(p.name for p in out.iterdir()) == ["junit.xml", "simulate", "summary.csv",
+                                                     "summary.json"]
+
+
+def test_library_names_and_every_command(tmp_path, capsys):
+    """Library names as the other commands take them; commands beyond the judged five:
+    equations prints only, import writes OUT/import/NAME/NAME.yaml."""
+    path = config(tmp_path, """\
+jobs:
+  - {command: equations, robot: rr}
+  - {command: export, robot: rr, options: [--lang, python], expect: {equal: {lang: python}}}
+  - {command: linearize, robot: rr, expect: {equal: {robot: rr}}}
+  - {command: import, robot: ur5}
+""")
+    out = tmp_path / "out"
+    assert main(["batch", str(path), "--jobs", "2", "--out", str(out)]) == 0, \
+        capsys.readouterr()
+    from anadyn_cli.model import library
+
+    plan = batch.load_batch(path)
+    assert [j.robot for j in plan.jobs] == [str(library.find("rr"))] * 3 + [
+        str(library.find("ur5"))]
+    assert "q1" in (out / "equations" / "rr" / "stdout.txt").read_text()
+    assert (out / "export" / "rr" / "rr.py").is_file()
+    assert (out / "linearize" / "rr" / "linearize.json").is_file()
+    assert "bodies:" in (out / "import" / "ur5" / "ur5.yaml").read_text()
+
+
+def test_timeouts_are_junit_errors_misses_failures(tmp_path, capsys):
+    path = config(tmp_path, """\
+jobs:
+  - {command: simulate, robot: RR, name: slow, timeout: 0.001}
+  - {command: simulate, robot: RR, name: short, options: [--no-plot, --t-end, 1], expect: {max: {rows: 10}}}
+""")
+    out = tmp_path / "out"
+    assert main(["batch", str(path), "--out", str(out)]) == 1
+    capsys.readouterr()
+    suite = ET.parse(out / "junit.xml").getroot()
+    assert (suite.get("tests"), suite.get("failures"), suite.get("errors")) == ("2", "1", "1")
+    cases = {c.get("name"): c for c in suite.iter("testcase")}
+    assert cases["slow"].find("failure") is None
+    error = cases["slow"].find("error")
+    assert (error.get("type"), error.get("message")) == (
+        "timeout", "anadyn batch: timed out after 0.001 s")
+    assert cases["short"].find("error") is None
+    assert cases["short"].find("failure").get("type") == "expectation"
+
+
+def test_control_characters_cannot_break_the_junit_report(tmp_path, capsys):
+    """In the robot's file name and so in the job's output and the report's names."""
+    robot = tmp_path / "bell\x07\x1b[31m.yaml"
+    robot.write_text(RR.read_text())
+    path = config(tmp_path, """\
+jobs:
+  - command: simulate
+    robot: "bell\\a\\e[31m.yaml"
+    options: [--no-plot, --t-end, 1]
+    expect: {equal: {"rows\\x02": 1, rows: 101}}
+""")
+    out = tmp_path / "out"
+    assert main(["batch", str(path), "--out", str(out)]) == 1
+    assert "rows\x02: missing in simulate.json" in capsys.readouterr().err
+    case = ET.parse(out / "junit.xml").getroot().find("testcase")      # well-formed
+    assert case.get("name") == "bell___31m"
+    assert case.find("failure").get("message") == "rows?: missing in simulate.json"
+    assert case.find("properties/property").get("name") == "rows"
+    assert case.find("system-out").text.startswith("       t (s)")
+
+
+def test_every_text_and_attribute_of_the_report_is_xml():
+    """What XML 1.0 forbids, anywhere (a batch file's name, a figure's key, a miss, the
+    output), becomes '?'; the report parses."""
+    job = batch.Job("simulate", "r\x01.yaml", "rr", (), batch.Expectation())
+    result = batch.JobResult(job, 1, 1.0, stdout="out \x01\x1b[31m \x0c", stderr="err \x00",
+                             figures={"a\x02": 1.0}, failures=["exit \x01 code"])
+    suite = ET.fromstring(batch.junit_text(batch.BatchResult(
+        batch.Batch("b\x03.yaml", (job,)), [result], 1, 1.0, "2026-01-01T00:00:00+00:00")))
+    case = suite.find("testcase")
+    assert suite.get("name") == "anadyn batch b?.yaml"
+    assert case.find("properties/property").get("name") == "a?"
+    assert case.find("failure").get("message") == "exit ? code"
+    assert case.find("system-out").text == "out ??[31m ?"
+    assert case.find("system-err").text == "err ?"
+
+
+def test_reports_keep_the_whole_output_cut_in_the_middle():
+    lines = [f"line {i:05d}" for i in range(100_000)]
+    text = "header\n" + "\n".join(lines) + "\nanadyn: error: the end\n"
+    kept = batch.excerpt(text)
+    assert kept.startswith("header\nline 00000\n") and kept.endswith("\nanadyn: error: the end")
+    assert len(kept) <= batch.OUTPUT_KEPT + 100
+    head, marker, tail = kept.partition(" characters left out ...]\n")
+    skipped = int(head.rpartition("[... ")[2])
+    assert len(head.rpartition("[... ")[0]) + skipped + len(tail) == len(text.rstrip("\n"))
+    assert batch.excerpt("short\n") == "short"
+    job = batch.Job("inverse", "rr.yaml", "rr", (), batch.Expectation())
+    missed = batch.JobResult(job, 1, 1.0, stdout=text, stderr=text,
+                             failures=["exit code 1, expected 0"])
+    report = ET.fromstring(batch.junit_text(batch.BatchResult(
+        batch.Batch("b.yaml", (job,)), [missed], 1, 1.0, "2026-01-01T00:00:00+00:00")))
+    case = report.find("testcase")
+    assert case.find("system-out").text == kept
+    assert case.find("failure").text.endswith("stderr:\n" + kept)

@@ -32,12 +32,13 @@ def cache_dir(tmp_path, monkeypatch) -> Path:
     return folder
 
 
-def simulate(capsys, robot, out, *options) -> tuple[str | None, str]:
-    """Run `anadyn simulate` (exit 0 expected); ('hit' | 'miss' | None, stdout)."""
+def simulate(capsys, robot, out, *options, err: str = "") -> tuple[str | None, str]:
+    """Run `anadyn simulate` (exit 0 expected, ``err`` on stderr); ('hit' | 'miss' |
+    None, stdout)."""
     code = main(["simulate", str(robot), "--out", str(out), *map(str, options)])
     captured = capsys.readouterr()
     assert code == 0, captured.err
-    assert captured.err == ""
+    assert captured.err == err
     line = re.search(r"^time: (.*)$", captured.out, re.M)[1]
     found = re.search(r"\bcache (hit|miss)\b", line)
     return (found[1] if found else None), captured.out
@@ -120,39 +121,51 @@ def test_no_cache_neither_reads_nor_writes(cache_dir, tmp_path, capsys, monkeypa
 
 
 def _damage(path: Path, how: str) -> None:
-    text = path.read_text()
-    entry = json.loads(text)
+    """Damage the entry as a disk or an editor would (its seal no longer matches),
+    or rewrite it with a valid seal but hostile content (as only its owner could)."""
+    data = path.read_bytes()
+    entry = json.loads(cache.unseal(data))
     if how == "garbage":
         path.write_bytes(b"\x00\xff\xfe not json")
     elif how == "truncated":
-        path.write_text(text[: len(text) // 2])
+        path.write_bytes(data[: len(data) // 2])
     elif how == "empty":
-        path.write_text("")
-    elif how == "not a mapping":
-        path.write_text("[1, 2, 3]")
-    elif how == "another robot's":
-        path.write_text(json.dumps({**entry, "digest": "0" * 64}))
-    elif how == "no code":
-        del entry["code"]
-        path.write_text(json.dumps(entry))
-    elif how == "code cut short":
-        path.write_text(json.dumps({**entry, "code": entry["code"][: len(entry["code"]) // 2]}))
-    elif how == "no robot info":
-        del entry["robot"]
+        path.write_bytes(b"")
+    elif how == "one bit flipped":
+        path.write_bytes(data[:200] + bytes([data[200] ^ 1]) + data[201:])
+    elif how == "unsealed":
         path.write_text(json.dumps(entry))
     else:
-        raise ValueError(how)
+        hostile = {"not a mapping": [1, 2, 3], "another robot's": {**entry, "digest": "0" * 64},
+                   "no code": {k: v for k, v in entry.items() if k != "code"},
+                   "code not text": {**entry, "code": 12},
+                   "code cut short": {**entry, "code": entry["code"][: len(entry["code"]) // 2]},
+                   "no robot info": {k: v for k, v in entry.items() if k != "robot"},
+                   "robot info of the wrong type": {**entry, "robot": [None]}}.get(how)
+        payload = (json.dumps(hostile).encode() if how != "deeply nested"    # RecursionError
+                   else b'{"code": ' + b"[" * 200000 + b"]" * 200000 + b"}")
+        path.write_bytes(cache.seal(payload))
 
 
-@pytest.mark.parametrize("how", ["garbage", "truncated", "empty", "not a mapping",
-                                 "another robot's", "no code", "code cut short",
-                                 "no robot info"])
+#: damaged: its seal does not match; deeply nested: JSON that json cannot read
+#: (RecursionError); both are misses with a warning.  The rest are well sealed.
+DAMAGED = ["garbage", "truncated", "empty", "one bit flipped", "unsealed", "deeply nested"]
+HOSTILE = ["not a mapping", "another robot's", "no code", "code not text", "code cut short",
+           "no robot info", "robot info of the wrong type"]
+
+
+@pytest.mark.parametrize("how", DAMAGED + HOSTILE)
 def test_damaged_entry_is_a_miss(cache_dir, tmp_path, capsys, how):
-    """cache.py: 'A damaged or unreadable entry is a miss'; the run then repairs it."""
+    """A damaged entry (its SHA-256 does not match) is a miss with one warning line;
+    a well-sealed entry with the wrong content is a miss too; the run then repairs it
+    and the results are those of the first run, to the byte."""
     assert simulate(capsys, RR, tmp_path / "a", "--t-end", 1, "--no-plot")[0] == "miss"
     (entry,) = cache_dir.glob("*.json")
     _damage(entry, how)
-    assert simulate(capsys, RR, tmp_path / "b", "--t-end", 1, "--no-plot")[0] == "miss"
+    warning = (f"anadyn: warning: cache entry {entry} is damaged (its content does not match "
+               "its SHA-256 or is not JSON); not used, rebuilt\n") if how in DAMAGED else ""
+    assert simulate(capsys, RR, tmp_path / "b", "--t-end", 1, "--no-plot",
+                    err=warning)[0] == "miss"
     assert (tmp_path / "b" / "simulate.csv").read_bytes() == (tmp_path / "a" / "simulate.csv").read_bytes()
     assert simulate(capsys, RR, tmp_path / "c", "--t-end", 1, "--no-plot")[0] == "hit"
 

@@ -121,4 +121,5 @@ def test_the_balance_catches_a_wrong_actuator_power(monkeypatch):
 def test_bad_threshold_is_a_usage_error(capsys, tmp_path):
     code, _, err = run_check(capsys, tmp_path, "robots/rr.yaml", "--energy-tol", "-1")
     assert code == 2
-    assert err == "anadyn: error: --energy-tol must be a positive number, got -1\n"
+    assert err == ("anadyn: error: --energy-tol must be a number greater than 0 and less "
+                   "than 1, got -1\n")

@@ -116,8 +116,8 @@ def test_inverse_prints_peak_efforts(tmp_path, capsys):
     assert main(["inverse", str(ROBOTS / "rrt.yaml"), "--no-plot", "--no-roundtrip",
                  "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "\npeak T01x: +4.1683 N·m at t = 3.54 s\n" in out
-    assert "\npeak F23z: +339.828 N at t = 15 s\n" in out
+    assert "\n    T01x   +4.1683 N·m      3.54 " in out       # the sizing table's rows
+    assert "\n    F23z    +339.828 N        15 " in out
 
 
 def test_peak_against_a_limit():
@@ -128,8 +128,11 @@ def test_peak_against_a_limit():
     result = SimpleNamespace(
         robot=SimpleNamespace(actuators=[SimpleNamespace(name="T1", unit="N*m",
                                                          effort_limit=20.0)]),
-        efforts=np.array([[1.0], [-25.0], [3.0]]), t=np.array([0.0, 0.5, 1.0]))
-    assert inverse.peaks(result) == "peak T1: -25 N·m at t = 0.5 s (limit 20 N·m: 125%, EXCEEDED)"
+        efforts=np.array([[1.0], [-25.0], [3.0]]), t=np.array([0.0, 0.5, 1.0]),
+        rates=np.array([[0.0], [2.0], [-3.0]]))
+    table = inverse.sizing_table(result).splitlines()
+    assert table[1].split() == ["T1", "-25", "N·m", "0.5", "17.7482", "N·m", "3", "rad/s",
+                                "50", "125%", "of", "20", "EXCEEDED"]
 
 
 # -- progress ---------------------------------------------------------------------------

@@ -50,9 +50,12 @@ def test_compare_passes_on_every_shipped_robot(tmp_path, monkeypatch, capsys):
     """With no argument: every robots/*.yaml, closed chains and forces included."""
     monkeypatch.chdir(ROOT)
     assert main(["compare", "--out", str(tmp_path)]) == 0
-    figures = json.loads((tmp_path / "compare.json").read_text())
-    assert set(figures["robots"]) == {p.stem for p in (ROOT / "robots").glob("*.yaml")}
-    assert figures["passed"] is True and figures["mismatches"] == 0
+    names = {p.stem for p in (ROOT / "robots").glob("*.yaml")}
+    assert {p.parent.name for p in tmp_path.glob("*/compare.json")} == names  # a folder each
+    for name in names:
+        figures = json.loads((tmp_path / name / "compare.json").read_text())
+        assert set(figures["robots"]) == {name}
+        assert figures["passed"] is True and figures["mismatches"] == 0
 
 
 def test_compare_on_the_chapters_arms(tmp_path, monkeypatch, capsys):
@@ -69,14 +72,18 @@ def test_compare_on_the_chapters_arms(tmp_path, monkeypatch, capsys):
     assert lines[8].endswith("0 exactly (all 21 entries of M, F, B)")
     assert all(line.split()[6] == "ok" for line in lines[3:8] + lines[9:14])
     assert lines[7].endswith("ok (1501 rows to 15 s, odeint rtol 1e-10)")
-    figures = json.loads((tmp_path / "compare.json").read_text())
-    assert figures["passed"] is True and figures["mismatches"] == 0
-    assert figures["robots_compared"] == 2 and figures["symbolic_proven"] == 2
-    assert set(figures["robots"]) == {"rr", "rrt"}
-    with open(tmp_path / "compare.csv") as stream:
-        table = list(csv.reader(stream))
-    assert table[0] == ["robot", "check", "max_abs", "max_rel", "tolerance", "passed", "detail"]
-    assert len(table) == 13 and all(row[5] == "True" for row in table[1:])
+    assert not (tmp_path / "compare.json").exists()          # each robot in its own folder
+    for name in ("rr", "rrt"):
+        figures = json.loads((tmp_path / name / "compare.json").read_text())
+        assert figures["passed"] is True and figures["mismatches"] == 0
+        assert figures["robots_compared"] == 1 and figures["symbolic_proven"] == 1
+        assert set(figures["robots"]) == {name}
+        with open(tmp_path / name / "compare.csv") as stream:
+            table = list(csv.reader(stream))
+        assert table[0] == ["robot", "check", "max_abs", "max_rel", "tolerance", "passed",
+                            "detail"]
+        assert len(table) == 7 and all(row[5] == "True" and row[0] == name
+                                       for row in table[1:])
 
 
 def test_a_wrong_term_in_f_is_caught_by_every_check(tmp_path, monkeypatch, capsys):
@@ -117,7 +124,8 @@ def test_trajectory_check_sees_a_different_motion(tmp_path):
     text = RR.read_text()
     robot = robot_from_text(text, "rr.yaml")
     stronger = robot_from_text(text.replace("g: 9.81", "g: 9.82"), "rr.yaml")
-    ours, other = numeric_model(robot, "kane"), numeric_model(stronger, "lagrange")
+    ours = numeric_model(robot, evaluator="recursive")
+    other = numeric_model(stronger, "lagrange")
     same, failure = trajectory_check(ours, numeric_model(robot, "lagrange"), 1e-7)
     assert same.passed and same.max_rel < 1e-9 and failure == ""     # recursive vs closed form
     differs, failure = trajectory_check(ours, other, 1e-7)
@@ -154,8 +162,8 @@ def test_numeric_check_on_random_robots(tmp_path, capsys):
 
 def test_bad_arguments_are_one_line_and_exit_2(tmp_path, monkeypatch, capsys):
     assert main(["compare", str(RR), "--samples", "0", "--out", str(tmp_path)]) == 2
-    assert capsys.readouterr().err == ("anadyn: error: --samples must be a positive whole "
-                                       "number, got 0\n")
+    assert capsys.readouterr().err == ("anadyn: error: --samples must be a whole number from "
+                                       "1 to 1,000,000, got 0\n")
     assert main(["compare", "no/such.yaml"]) == 2
     assert capsys.readouterr().err == "anadyn: error: no/such.yaml: no such file\n"
 
@@ -165,7 +173,7 @@ def test_samples_cover_a_range_around_the_start():
     from anadyn_cli.model.info import RobotInfo
 
     robot = robot_from_text((ROOT / "robots" / "rrt.yaml").read_text(), "rrt.yaml")
-    compiled = numeric_model(robot, "kane")
+    compiled = numeric_model(robot, evaluator="recursive")
     q, dq, tau = sample_states(RobotInfo.from_robot(robot), compiled, 200)
     assert q.shape == dq.shape == (3, 200) and tau.shape == (3, 200)
     assert np.all(np.abs(q[0] - np.pi / 18) <= np.pi) and np.ptp(q[0]) > np.pi

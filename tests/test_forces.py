@@ -43,7 +43,8 @@ ROBOTS = Path(__file__).resolve().parent.parent / "robots"
 RR = (ROBOTS / "rr.yaml").read_text()
 RRT = (ROBOTS / "rrt.yaml").read_text()
 T = sp.Symbol("t", real=True)
-PATHS = ["kane", "lagrange"]        # recursive code, closed forms
+PATHS = {"recursive": ("--evaluator", "recursive"),      # Newton-Euler code
+         "lagrange": ("--formulation", "lagrange")}    # Lagrange's closed forms
 
 
 # -- helpers -------------------------------------------------------------------------
@@ -65,10 +66,10 @@ def columns(path: Path) -> dict[str, np.ndarray]:
 
 
 def simulate(capsys, tmp_path: Path, text: str, *options,
-             formulation: str = "kane") -> dict[str, np.ndarray]:
+             computation: str = "recursive") -> dict[str, np.ndarray]:
     path, out = write(tmp_path, text), tmp_path / "out"
     code, _, err = cli(capsys, "simulate", path, "--out", out, "--no-plot", "--no-cache",
-                       "--formulation", formulation, *options)
+                       *PATHS[computation], *options)
     assert code == 0, err
     return columns(out / "simulate.csv")
 
@@ -110,15 +111,15 @@ simulation: {t_end: 6, output_step: 0.001}
 """
 
 
-@pytest.mark.parametrize("formulation", PATHS)
+@pytest.mark.parametrize("computation", PATHS)
 def test_damped_pendulum_decays_at_the_closed_form_rate_and_frequency(tmp_path, capsys,
-                                                                      formulation):
+                                                                      computation):
     """I phi'' + c phi' + m g L phi = 0 (small phi, I = m L^2): phi = phi0 e^(-sigma t)
     (cos wd t + sigma/wd sin wd t), sigma = c / (2 I), wd = sqrt(g/L - sigma^2)."""
     m, L, g, c, phi0 = 2.0, 0.5, 9.81, 0.3, 1e-4
     sigma, wd = c / (2 * m * L**2), math.sqrt(g / L - (c / (2 * m * L**2)) ** 2)
     run = simulate(capsys, tmp_path, PENDULUM, "--rtol", "1e-12", "--atol", "1e-16",
-                   formulation=formulation)
+                   computation=computation)
     t, phi = run["t"], run["q1"] + math.pi / 2
     exact = phi0 * np.exp(-sigma * t) * (np.cos(wd * t) + sigma / wd * np.sin(wd * t))
     assert np.abs(phi - exact).max() <= 1e-7 * phi0          # measured 1e-9 phi0 (sin phi)
@@ -132,7 +133,7 @@ def test_damped_pendulum_decays_at_the_closed_form_rate_and_frequency(tmp_path, 
     assert measured_sigma == pytest.approx(sigma, rel=1e-5)
     # undamped, the amplitude stays: the decay is the damping's
     undamped = simulate(capsys, tmp_path, edit(PENDULUM, ", damping: c", ""),
-                        "--rtol", "1e-12", "--atol", "1e-16", formulation=formulation)
+                        "--rtol", "1e-12", "--atol", "1e-16", computation=computation)
     assert np.abs(undamped["q1"] + math.pi / 2).max() == pytest.approx(phi0, rel=1e-6)
     assert np.abs(phi[t > 5]).max() < 0.25 * phi0
 
@@ -152,15 +153,15 @@ simulation: {t_end: 5, output_step: 0.001}
 """
 
 
-@pytest.mark.parametrize("formulation", PATHS)
+@pytest.mark.parametrize("computation", PATHS)
 def test_spring_mass_oscillates_about_its_equilibrium_with_the_closed_form_period(
-        tmp_path, capsys, formulation):
+        tmp_path, capsys, computation):
     """m y'' = -k (y - r) - m g: equilibrium y_eq = r - m g / k, period 2 pi sqrt(m/k);
     released at rest at y = r, y = y_eq + (r - y_eq) cos(sqrt(k/m) t)."""
     m, k, r, g = 1.5, 60.0, 0.4, 9.81
     y_eq, w = r - m * g / k, math.sqrt(k / m)
     run = simulate(capsys, tmp_path, SPRING, "--rtol", "1e-12", "--atol", "1e-14",
-                   formulation=formulation)
+                   computation=computation)
     t, y = run["t"], run["y"]
     assert np.abs(y - (y_eq + (r - y_eq) * np.cos(w * t))).max() <= 1e-9
     zeros = crossings(t, y - y_eq)
@@ -168,17 +169,17 @@ def test_spring_mass_oscillates_about_its_equilibrium_with_the_closed_form_perio
     assert period == pytest.approx(2 * math.pi * math.sqrt(m / k), rel=1e-6)
     # started at the equilibrium it stays there
     still = simulate(capsys, tmp_path, edit(SPRING, "initial: 0.4", f"initial: {y_eq!r}"),
-                     formulation=formulation)
+                     computation=computation)
     assert np.abs(still["y"] - y_eq).max() <= 1e-12
 
 
-@pytest.mark.parametrize("formulation", PATHS)
-def test_spring_energy_is_part_of_the_potential(tmp_path, capsys, formulation):
+@pytest.mark.parametrize("computation", PATHS)
+def test_spring_energy_is_part_of_the_potential(tmp_path, capsys, computation):
     """check's balance holds only if V has k/2 (y - r)^2: without it, T + V swings by
     the spring's energy (about 1.8 J here)."""
     path, out = write(tmp_path, SPRING), tmp_path / "check"
     code, _, err = cli(capsys, "check", path, "--out", out, "--no-cache", "--t-end", "2",
-                       "--formulation", formulation)
+                       *PATHS[computation])
     assert code == 0, err
     figures = json.loads((out / "check.json").read_text())
     assert figures["energy_error"] < 1e-9
@@ -225,10 +226,10 @@ def planar_holding_efforts(q1: float, q2: float, f: np.ndarray, tz: float) -> np
     return -(J.T @ f) - tz
 
 
-@pytest.mark.parametrize("formulation", PATHS)
+@pytest.mark.parametrize("computation", PATHS)
 @pytest.mark.parametrize("frame", ["world", "body"])
 def test_static_arm_holding_a_tip_load_needs_minus_J_transpose_f(tmp_path, capsys, frame,
-                                                                 formulation):
+                                                                 computation):
     q1, q2, f = 0.3, 0.7, np.array([12.0, -30.0])
     text = HOLDING
     if frame == "body":     # the same force, given in the forearm's axes
@@ -239,7 +240,7 @@ def test_static_arm_holding_a_tip_load_needs_minus_J_transpose_f(tmp_path, capsy
                     "frame: body}")
     path, out = write(tmp_path, text), tmp_path / "out"
     code, _, err = cli(capsys, "inverse", path, "--out", out, "--no-plot", "--no-cache",
-                       "--formulation", formulation)
+                       *PATHS[computation])
     assert code == 0, err
     run = columns(out / "inverse.csv")
     expected = planar_holding_efforts(q1, q2, f, 1.5)
@@ -247,8 +248,8 @@ def test_static_arm_holding_a_tip_load_needs_minus_J_transpose_f(tmp_path, capsy
     assert np.abs(run["T2"] - expected[1]).max() <= 1e-12 * 40
 
 
-@pytest.mark.parametrize("formulation", PATHS)
-def test_the_arm_held_by_those_efforts_stays_put(tmp_path, capsys, formulation):
+@pytest.mark.parametrize("computation", PATHS)
+def test_the_arm_held_by_those_efforts_stays_put(tmp_path, capsys, computation):
     """The direct dynamics agrees on the sign: under tau = -J^T f the arm does not move."""
     laws = """\
 controller:
@@ -257,9 +258,9 @@ controller:
     T2: -(-L2*sin(q1 + q2)*fx + L2*cos(q1 + q2)*fy + tz)
 """
     run = simulate(capsys, tmp_path, edit(HOLDING, "trajectory:", laws + "trajectory:"),
-                   "--rtol", "1e-12", "--atol", "1e-14", formulation=formulation)
+                   "--rtol", "1e-12", "--atol", "1e-14", computation=computation)
     assert np.abs(run["q1"] - 0.3).max() <= 1e-9 and np.abs(run["q2"] - 0.7).max() <= 1e-9
-    without = simulate(capsys, tmp_path, HOLDING, formulation=formulation)   # load alone
+    without = simulate(capsys, tmp_path, HOLDING, computation=computation)   # load alone
     assert np.abs(without["q2"] - 0.7).max() > 0.1
 
 
@@ -273,8 +274,8 @@ def rrt_tip(q: np.ndarray, tool: float = 0.2) -> np.ndarray:
     return np.array([local[0], c * local[1] - s * local[2], s * local[1] + c * local[2]])
 
 
-@pytest.mark.parametrize("formulation", PATHS)
-def test_spatial_arm_holding_a_tip_force_and_torque(tmp_path, capsys, formulation):
+@pytest.mark.parametrize("computation", PATHS)
+def test_spatial_arm_holding_a_tip_force_and_torque(tmp_path, capsys, computation):
     """RRT without gravity: efforts = -(J^T f + J_w^T T), J by central differences of the
     hand-written tool point, J_w = [i0, Rx(q1) j0, 0] (the slider does not turn)."""
     q = np.array([math.pi / 18, math.pi / 6, 0.25])
@@ -289,7 +290,7 @@ def test_spatial_arm_holding_a_tip_force_and_torque(tmp_path, capsys, formulatio
                 "q2: pi/6, q3: 0.25}}")
     path, out = write(tmp_path, text), tmp_path / "out"
     code, _, err = cli(capsys, "inverse", path, "--out", out, "--no-plot", "--no-cache",
-                       "--dt", "0.5", "--formulation", formulation)
+                       "--dt", "0.5", *PATHS[computation])
     assert code == 0, err
     run = columns(out / "inverse.csv")
     h = 1e-6
@@ -317,28 +318,28 @@ simulation: {t_end: 2, output_step: 0.001}
 """
 
 
-@pytest.mark.parametrize("formulation", PATHS)
-def test_block_sticks_below_breakaway_within_the_smoothing(tmp_path, capsys, formulation):
+@pytest.mark.parametrize("computation", PATHS)
+def test_block_sticks_below_breakaway_within_the_smoothing(tmp_path, capsys, computation):
     """Pushed by P < f from rest, m x'' = P - f tanh(x'/v) creeps at most at
     v atanh(P/f) (v = 0.01 m/s, the default): 5.5 mm/s, where a frictionless block
     would be at 5 m/s after 2 s."""
     v, P, f = 0.01, 5.0, 10.0
     creep = v * math.atanh(P / f)
     run = simulate(capsys, tmp_path, BLOCK, "--rtol", "1e-11", "--atol", "1e-14",
-                   formulation=formulation)
+                   computation=computation)
     assert run["dx"].max() <= creep * (1 + 1e-9) and run["dx"].min() >= 0
     assert run["dx"][-1] == pytest.approx(creep, rel=1e-8)
     assert 0 < run["x"][-1] <= creep * 2.0                        # 1.1 cm in 2 s
 
 
-@pytest.mark.parametrize("formulation", PATHS)
-def test_block_slides_above_breakaway_within_the_smoothing(tmp_path, capsys, formulation):
+@pytest.mark.parametrize("computation", PATHS)
+def test_block_slides_above_breakaway_within_the_smoothing(tmp_path, capsys, computation):
     """Pushed by P > f: x'' = (P - f tanh(x'/v))/m >= (P - f)/m, and the smoothing's
     shortfall integrates to at most f v ln 2 / (P - f), so
     (P - f) T/m <= x'(T) <= (P - f) T/m + f v ln 2 / (P - f)."""
     v, P, f, m, T_end = 0.01, 20.0, 10.0, 2.0, 2.0
     run = simulate(capsys, tmp_path, edit(BLOCK, "P: 5.0", "P: 20.0"),
-                   "--rtol", "1e-11", "--atol", "1e-14", formulation=formulation)
+                   "--rtol", "1e-11", "--atol", "1e-14", computation=computation)
     coulomb = (P - f) * T_end / m
     assert coulomb <= run["dx"][-1] <= coulomb + f * v * math.log(2) / (P - f)
     assert coulomb * T_end / 2 <= run["x"][-1] <= (coulomb / 2 + f * v * math.log(2) / (P - f)
@@ -451,10 +452,10 @@ def run_check(capsys, tmp_path, path, *options) -> tuple[int, dict, str]:
     return code, figures, err
 
 
-@pytest.mark.parametrize("formulation", PATHS)
-def test_energy_balance_holds_with_friction_springs_and_loads(tmp_path, capsys, formulation):
+@pytest.mark.parametrize("computation", PATHS)
+def test_energy_balance_holds_with_friction_springs_and_loads(tmp_path, capsys, computation):
     code, figures, err = run_check(capsys, tmp_path, ROBOTS / "rrt_friction.yaml",
-                                   "--t-end", "5", "--formulation", formulation)
+                                   "--t-end", "5", *PATHS[computation])
     assert code == 0, err
     assert figures["energy_error"] < 1e-8                          # measured 5e-11
     assert figures["dissipated_final"] > 1.0                       # J: it is not vacuous
@@ -475,29 +476,29 @@ def test_energy_balance_catches_a_wrong_dissipation_term_in_the_equations(
     assert "energy balance" in err and "exceeds 1e-06" in err
 
 
-@pytest.mark.parametrize("formulation", PATHS)
+@pytest.mark.parametrize("computation", PATHS)
 def test_energy_balance_catches_a_wrong_dissipated_power(tmp_path, capsys, monkeypatch,
-                                                         formulation):
+                                                         computation):
     from anadyn_cli.services import check as check_service
 
     original = check_service.external_powers
     monkeypatch.setattr(check_service, "external_powers",
                         lambda model, t, x: original(model, t, x) * np.array([1.0, 0.0]))
     code, figures, _ = run_check(capsys, tmp_path, ROBOTS / "rrt_friction.yaml",
-                                 "--t-end", "5", "--formulation", formulation)
+                                 "--t-end", "5", *PATHS[computation])
     assert code == 1 and figures["energy_error"] > 1e-3
 
 
 # -- 8. inverse and the round trip --------------------------------------------------------
-@pytest.mark.parametrize("formulation", PATHS)
-def test_inverse_efforts_overcome_friction_spring_and_load(tmp_path, capsys, formulation):
+@pytest.mark.parametrize("computation", PATHS)
+def test_inverse_efforts_overcome_friction_spring_and_load(tmp_path, capsys, computation):
     """rrt_friction has rrt's masses: its efforts differ from rrt's by exactly -Q(t, q, dq)
     (B = I), which holds the time-dependent load; the round trip still closes."""
     runs = {}
     for name in ("rrt", "rrt_friction"):
         out = tmp_path / name
         code, _, err = cli(capsys, "inverse", ROBOTS / f"{name}.yaml", "--out", out,
-                           "--no-plot", "--no-cache", "--formulation", formulation,
+                           "--no-plot", "--no-cache", *PATHS[computation],
                            *(("--no-roundtrip",) if name == "rrt" else ()))
         assert code == 0, err
         runs[name] = columns(out / "inverse.csv")

@@ -147,7 +147,7 @@ def scale(tau):
 # -- efforts -------------------------------------------------------------------------
 @pytest.mark.parametrize("name", ["rr", "rrt"])
 def test_efforts_agree_with_the_mechanics_oracle(name, oracles):
-    result = inverse(numeric_model(robot(name), "kane"), roundtrip=False)
+    result = inverse(numeric_model(robot(name), evaluator="recursive"), roundtrip=False)
     times = np.arange(16.0)
     ours = result.dynamics.efforts(times)[3]
     theirs = oracle_efforts(oracles[name], *cycloid(*CHAPTER[name], times))
@@ -159,10 +159,11 @@ def test_efforts_agree_with_the_mechanics_oracle(name, oracles):
 
 
 @pytest.mark.parametrize("name", ["rr", "rrt"])
-def test_kane_and_lagrange_efforts_agree(name):
-    kane = inverse(numeric_model(robot(name), "kane"), roundtrip=False)
+def test_recursive_and_lagrange_closed_form_efforts_agree(name):
+    recursive = inverse(numeric_model(robot(name), evaluator="recursive"), roundtrip=False)
     lagrange = inverse(numeric_model(robot(name), "lagrange"), roundtrip=False)
-    assert np.all(np.abs(kane.efforts - lagrange.efforts) <= 1e-10 * scale(kane.efforts))
+    assert np.all(np.abs(recursive.efforts - lagrange.efforts)
+                  <= 1e-10 * scale(recursive.efforts))
 
 
 def rr_static(q1, q2, m=1.0, L=1.0, g=9.81):

@@ -1,5 +1,5 @@
 """The library's shape (issue 16): the import graph runs one way, services speak
-the domain, the Python API of the README works as printed, and the bugs found
+the domain, the Python API example of the docs works as printed, and the bugs found
 by the structural read stay fixed."""
 from __future__ import annotations
 
@@ -119,7 +119,7 @@ def test_a_wrong_setting_is_named_as_the_library_knows_it(tmp_path):
         anadyn.simulate(model, output_step=0)
     assert str(caught.value) == "output_step must be a positive number, got 0"
     with pytest.raises(SettingError, match="^roundtrip_segment must be a positive number"):
-        anadyn.inverse(model, segment=-1)
+        anadyn.inverse(model, roundtrip_segment=-1)
 
 
 def test_the_command_line_names_its_flag(tmp_path, capsys):
@@ -137,16 +137,17 @@ def test_library_calls_leave_the_cache_alone(tmp_path, monkeypatch):
     assert len(list((tmp_path / "cache").iterdir())) == 1
 
 
-def test_the_readme_python_example_runs_as_printed(repo, tmp_path, monkeypatch):
-    """The README's "Python API" block, executed in a scratch folder."""
-    text = (repo / "README.md").read_text(encoding="utf-8")
-    block = text.split("## Python API", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+def test_the_python_api_example_runs_as_printed(repo, tmp_path, monkeypatch):
+    """The first block of docs/reference/python-api.md, executed in a scratch folder
+    (tests/test_docs.py runs every block; this one also checks what it writes)."""
+    text = (repo / "docs" / "reference" / "python-api.md").read_text(encoding="utf-8")
+    block = text.split("```python\n", 1)[1].split("```", 1)[0]
     monkeypatch.chdir(tmp_path)
     (tmp_path / "robots").symlink_to(repo / "robots")
     import matplotlib
 
     backend = matplotlib.get_backend()
-    exec(compile(block, "README.md", "exec"), {})    # noqa: S102  our own README
+    exec(compile(block, "python-api.md", "exec"), {})    # noqa: S102  our own docs
     assert (tmp_path / "rr.csv").read_text().startswith("t,q1,q2,dq1,dq2,T01z,T12z\n")
     assert (tmp_path / "rr.png").stat().st_size > 10_000
     assert matplotlib.get_backend() == backend
@@ -157,7 +158,7 @@ def test_results_keep_rows_as_times():
 
     run = anadyn.simulate("robots/rrt.yaml", t_end=0.5)
     assert run.x.shape == (len(run.t), 6) and run.efforts.shape == (len(run.t), 3)
-    inverse = anadyn.inverse("robots/rrt.yaml", roundtrip=False, step=0.5)
+    inverse = anadyn.inverse("robots/rrt.yaml", roundtrip=False, output_step=0.5)
     assert inverse.q.shape == (len(inverse.t), 3) and inverse.efforts.shape == (len(inverse.t), 3)
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -83,18 +85,63 @@ def test_out_under_a_file(tmp_path, capsys, monkeypatch, command):
     assert blocker.is_file() and blocker.read_text() == ""
 
 
-@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+def unprivileged(call):
+    """``call()``'s value, computed by a user that read-only folders stop: this user,
+    or for root (which writes anywhere) a forked child that has become ``nobody``
+    (as ``setpriv --reuid=nobody --regid=nogroup --clear-groups`` would; setpriv or
+    runuser cannot start this Python: it lives in root's home), with everything
+    imported already."""
+    if os.geteuid() != 0:
+        return call()
+    import pickle
+    import pwd
+
+    nobody = pwd.getpwnam("nobody")
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:                                   # the child: never back into pytest
+        try:
+            os.close(read)
+            os.setgroups([])
+            os.setgid(nobody.pw_gid)
+            os.setuid(nobody.pw_uid)
+            answer = ("value", call())
+        except BaseException as err:               # noqa: BLE001  reported to the parent
+            answer = ("raised", f"{type(err).__name__}: {err}")
+        with os.fdopen(write, "wb") as pipe:
+            pipe.write(pickle.dumps(answer))
+        os._exit(0)
+    os.close(write)
+    with os.fdopen(read, "rb") as pipe:
+        data = pipe.read()
+    os.waitpid(pid, 0)
+    kind, value = pickle.loads(data)               # noqa: S301  our own child's answer
+    assert kind == "value", value
+    return value
+
+
+@pytest.fixture
+def shared_tmp():
+    """A scratch folder that ``nobody`` can reach (pytest's tmp_path is root's alone)."""
+    folder = Path(tempfile.mkdtemp(prefix="anadyn-locked-"))
+    folder.chmod(0o755)
+    yield folder
+    for path in [folder, *folder.rglob("*")]:
+        if path.is_dir():
+            path.chmod(0o700)
+    shutil.rmtree(folder)
+
+
 @pytest.mark.parametrize("inside", [False, True])
-def test_out_not_writable(tmp_path, capsys, monkeypatch, inside):
-    locked = tmp_path / "locked"
+def test_out_not_writable(shared_tmp, capsys, monkeypatch, inside):
+    locked = shared_tmp / "locked"
     locked.mkdir()
-    locked.chmod(0o500)
+    locked.chmod(0o555)
     target = locked / "out" if inside else locked
+    run(capsys, "simulate", "--help")       # the CLI's own imports, while files are readable
     no_work(monkeypatch)
-    try:
-        code, out, err = run(capsys, "simulate", ROBOTS / "rr.yaml", "--out", target)
-    finally:
-        locked.chmod(0o700)
+    code, out, err = unprivileged(lambda: run(capsys, "simulate", ROBOTS / "rr.yaml",
+                                              "--out", target))
     expected = (f"cannot create the folder, {locked} is not writable" if inside
                 else "folder is not writable")
     assert err == f"anadyn: error: --out {target}: {expected}\n"

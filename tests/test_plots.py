@@ -89,7 +89,7 @@ def test_layout_stays_readable_at_many_joints(joints, rates, grid):
         assert [ax.get_ylabel() for ax in visible[:2]] == ["q1 (deg)", "dq1 (deg/s)"]
 
 
-def test_simulate_plot_has_rates_on_request_and_a_full_title():
+def test_simulate_plot_has_rates_on_request_a_plain_title_and_named_signals():
     from anadyn_cli.numeric.build import numeric_model
     from anadyn_cli.services import simulate as service
 
@@ -99,16 +99,52 @@ def test_simulate_plot_has_rates_on_request_and_a_full_title():
     assert labels(plain) == ["q1 (deg)", "q2 (deg)", "q3 (m)", "torque (N·m)", "force (N)"]
     assert labels(with_rates) == ["q1 (deg)", "dq1 (deg/s)", "q2 (deg)", "dq2 (deg/s)",
                                   "q3 (m)", "dq3 (m/s)", "torque (N·m)", "force (N)"]
-    assert plain._suptitle.get_text() == (f"rrt: direct dynamics, {result.formulation}, RK45, "
-                                          "rtol 1e-08, atol 1e-12")
+    assert plain.get_suptitle() == "rrt: simulate"      # the solver is in simulate.json
+    force = [ax for ax in plain.axes if ax.get_ylabel() == "force (N)"][0]
+    assert [t.get_text() for t in force.get_legend().get_texts()] == ["F23z"]
+    q1 = [ax for ax in plain.axes if ax.get_ylabel() == "q1 (deg)"][0]
+    assert q1.get_legend() is None                      # its label names it already
 
 
-def test_inverse_plot_title_names_the_round_trip(tmp_path, capsys):
+def test_inverse_plot_title_is_plain_and_limits_are_drawn(tmp_path, capsys):
     assert main(["inverse", str(ROBOTS / "rr.yaml"), "--out", str(tmp_path), "--rates",
                  "--plot-format", "svg"]) == 0
     svg = (tmp_path / "inverse.svg").read_text()
-    assert "rr: inverse dynamics, cycloidal motion over 15 s, " in svg
-    assert "tolerance 1e-06, ok" in svg and "prescribed ddq (deg/s²)" in svg
+    assert "rr: inverse" in svg and "round trip" not in svg
+    assert "prescribed ddq (deg/s²)" in svg
+    from anadyn_cli.output.plots import Panel, time_figure
+
+    t = np.linspace(0, 1, 5)
+    figure = time_figure(t, [Panel("T1 (N·m)", (("T1", t),), 20.0)], "x")
+    ax = figure.axes[0]
+    assert sorted(line.get_ydata()[0] for line in ax.lines[1:]) == [-20.0, 20.0]
+    assert [x.get_text() for x in ax.get_legend().get_texts()] == ["T1", "limit ±20"]
+
+
+def test_size_title_and_font_size(tmp_path, capsys):
+    from PIL import Image
+
+    assert main(["simulate", str(ROBOTS / "rr.yaml"), "--t-end", "0.5", "--out",
+                 str(tmp_path), "--size", "4x3", "--title", "Figure 2: the arm",
+                 "--font-size", "14"]) == 0
+    assert Image.open(tmp_path / "simulate.png").size == (4 * plots.DPI, 3 * plots.DPI)
+    assert main(["simulate", str(ROBOTS / "rr.yaml"), "--t-end", "0.5", "--out",
+                 str(tmp_path / "svg"), "--plot-format", "svg", "--title",
+                 "Figure 2: the arm", "--font-size", "14"]) == 0
+    svg = (tmp_path / "svg" / "simulate.svg").read_text()
+    assert "Figure 2: the arm" in svg and "rr: simulate" not in svg
+    figure = plots.time_figure(np.linspace(0, 1, 5), [("x (m)", [("x", np.zeros(5))])], "t")
+    plots.apply_style(figure, plots.FigureStyle(font_size=18))
+    assert figure.axes[0].get_ylabel() and figure.axes[0].yaxis.label.get_fontsize() == 18
+    capsys.readouterr()
+    for flag, value, message in (("--size", "4", "--size: expected WIDTHxHEIGHT in inches"),
+                                 ("--size", "0.1x3", "each 1 to 50"),
+                                 ("--font-size", "100", "--font-size: expected 4 to 40")):
+        assert main(["simulate", str(ROBOTS / "rr.yaml"), "--out", str(tmp_path / "bad"),
+                     flag, value]) == 2
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1
+    assert not (tmp_path / "bad").exists()
 
 
 def test_plotting_leaves_matplotlib_alone(tmp_path):

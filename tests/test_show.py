@@ -43,12 +43,6 @@ def segments(line, three_d: bool) -> list[np.ndarray]:
     return pieces
 
 
-def drawn_links(figure, view: int) -> list[np.ndarray]:
-    ax = figure.axes[view]
-    line = next(l for l in ax.lines if l.get_label() == "link")
-    return segments(line, view == 0)
-
-
 def rx(a):
     c, s = math.cos(a), math.sin(a)
     return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
@@ -87,11 +81,15 @@ def test_drawn_links_are_the_forward_kinematics(name):
         drawing = service.draw(fk, [",".join(f"{c}={float(v)!r}" for c, v in
                                              zip(fk.skeleton.coordinates, q))])
         figure = drawing.figure()
-        # 3-D view: every coordinate; the front view: its two world axes
-        plane = figure.axes[1]
+        # rrt: the 3-D view (every coordinate) and three planes; rr, planar: its plane alone
+        planar = name == "rr"
+        assert len(figure.axes) == (1 if planar else 4)
+        plane = figure.axes[0 if planar else 1]
         h, v = ("xyz".index(plane.get_xlabel()[0]), "xyz".index(plane.get_ylabel()[0]))
-        for view, pick in ((0, [0, 1, 2]), (1, [h, v])):
-            pieces = drawn_links(figure, view)
+        assert not planar or (h, v) == (0, 1)            # x across, y up (against gravity)
+        for view, pick in (((0, [h, v]),) if planar else ((0, [0, 1, 2]), (1, [h, v]))):
+            pieces = segments(next(l for l in figure.axes[view].lines
+                                   if l.get_label() == "link"), pick == [0, 1, 2])
             links = [(a, b) for a, b in expected["links"]]
             assert len(pieces) == len(links)
             for piece, (start, end) in zip(pieces, links):
@@ -269,8 +267,9 @@ def test_mp4_when_ffmpeg_is_there(tmp_path, capsys, monkeypatch):
                  "--animate", "--out", str(out)]) == 0
     assert "animation: mp4: written by ffmpeg" in capsys.readouterr().out
     raw = (out / "animate.mp4").read_bytes()      # the fake stores the raw frames
-    width, height = json.loads((out / "animate.json").read_text())["width"], 384
-    assert len(raw) == 6 * width * height * 3
+    shape = json.loads((out / "animate.json").read_text())
+    assert (shape["width"], shape["height"]) == (1280, 720)      # text >= 12 px at 100 dpi
+    assert len(raw) == 6 * 1280 * 720 * 3
     assert sorted(p.name for p in out.iterdir()) == ["animate.gif", "animate.json",
                                                      "animate.mp4", "simulate.csv",
                                                      "simulate.json"]

@@ -138,7 +138,7 @@ def reference(name: str) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=None)
-def default_run(name: str, formulation: str = "kane") -> service.SimulationResult:
+def default_run(name: str, formulation: str | None = None) -> service.SimulationResult:
     return service.simulate(numeric_model(ROBOTS / f"{name}.yaml", formulation))
 
 
@@ -170,13 +170,13 @@ def test_rr_settles_where_the_chapters_laws_put_it():
 
 
 @pytest.mark.parametrize("name", ["rr", "rrt"])
-def test_kane_and_lagrange_trajectories_agree(name):
-    kane, lagrange = default_run(name, "kane"), default_run(name, "lagrange")
-    assert kane.solution.success and lagrange.solution.success
-    assert np.array_equal(kane.t, lagrange.t)
-    assert np.abs(kane.x - lagrange.x).max() < 1e-8
-    scale = max(1.0, np.abs(kane.efforts).max())
-    assert np.abs(kane.efforts - lagrange.efforts).max() < 1e-8 * scale
+def test_recursive_and_lagrange_closed_form_trajectories_agree(name):
+    recursive, lagrange = default_run(name), default_run(name, "lagrange")
+    assert recursive.solution.success and lagrange.solution.success
+    assert np.array_equal(recursive.t, lagrange.t)
+    assert np.abs(recursive.x - lagrange.x).max() < 1e-8
+    scale = max(1.0, np.abs(recursive.efforts).max())
+    assert np.abs(recursive.efforts - lagrange.efforts).max() < 1e-8 * scale
 
 
 # -- 3: a passive pendulum -------------------------------------------------------
@@ -250,7 +250,7 @@ def test_one_coordinate_robot_has_a_square_mass_matrix():
     """M is n x n also for n = 1 (codegen once made it a vector of length 1, and
     np.linalg.solve then reported a 'singular mass matrix' for every 1-DOF robot)."""
     robot = robot_from_text(pendulum_text(0.5, carriage=False), "pendulum.yaml")
-    compiled = numeric_model(robot, "kane")
+    compiled = numeric_model(robot, evaluator="recursive")
     M, F, B = compiled.mfb(0.0, np.array([0.5]), np.array([0.0]))
     assert np.shape(M) == (1, 1) and np.shape(F) == (1,) and np.shape(B) == (1, 0)
     m, L = PENDULUM["m"], PENDULUM["L"]
@@ -298,7 +298,7 @@ def rr_energy_by_hand(q, dq):
 def passive_run(case: str):
     text = without("rr", "actuators", "controller", "trajectory") if case == "rr" else ARM_3D
     robot = robot_from_text(text, f"{case}_passive.yaml")
-    compiled = numeric_model(robot, "kane")
+    compiled = numeric_model(robot, evaluator="recursive")
     return service.simulate(compiled), compiled
 
 
@@ -493,7 +493,7 @@ def test_actuators_without_controller_move_passively_with_zero_efforts(tmp_path,
 @pytest.mark.parametrize("method", METHODS)
 def test_rhs_calls_are_the_calls_made(method):
     robot = load_robot(ROBOTS / "rr.yaml")
-    compiled = numeric_model(robot, "kane")
+    compiled = numeric_model(robot, evaluator="recursive")
     made = {"rhs": 0, "jacobian": 0}
     rhs, jacobian = compiled.rhs, compiled.jacobian
 

@@ -94,7 +94,7 @@ def test_kanes_equations_are_the_equations_of_motion(name, formulation):
         assert zero(Q + K + residual)
 
 
-@pytest.mark.parametrize("seed", [4, 17])
+@pytest.mark.parametrize("seed", [4, pytest.param(17, marks=pytest.mark.slow)])   # 17: ~170 s
 def test_kanes_terms_with_joint_forces_and_loads(seed):
     """A random robot with damping, friction, springs and loads, numerically at
     random states: Q + Kin + residual = 0."""

@@ -380,8 +380,8 @@ BAD = [
                        "(list), m2=normal(1,0.05) or m2=uniform(0.8,1.2)"),
     (["--vary", "m2=1:2"], "--vary m2=1:2: a grid is FROM:TO:COUNT, e.g. 10:60:11 (11 values "
                            "from 10 to 60)"),
-    (["--vary", "m2=1:2:x"], "--vary m2=1:2:x: the grid's COUNT must be a whole number of "
-                             "values, 1 or more, got 'x'"),
+    (["--vary", "m2=1:2:x"], "--vary m2=1:2:x: the grid's COUNT must be a whole number from "
+                             "1 to 1,000,000, got 'x'"),
     (["--vary", "m2=1:2:1"], "--vary m2=1:2:1: a grid of 1 value from 1 to 2; give 2 or more "
                              "values, or one value as a list"),
     (["--vary", "m2=1,,2"], "--vary m2=1,,2: empty value in the list; write numbers separated "
@@ -429,7 +429,7 @@ BAD = [
                                                   "final_dq1, final_dq2, rhs_calls, steps"),
     (["--vary", "m2=1,2", "--max", "peak_T01z"], "--max 'peak_T01z': expected METRIC=BOUND, "
                                                  "e.g. --max peak_T01z=50"),
-    (["--vary", "m2=1,2", "--jobs", "0"], "--jobs must be 1 or more, got 0"),
+    (["--vary", "m2=1,2", "--jobs", "0"], "--jobs must be a whole number of at least 1, got 0"),
     (["--vary", "m2=1,2", "--dt", "-1"], "--dt must be a positive number, got -1"),
     (["--vary", "m2=1,2", "--command", "inverse", "--rtol", "1e-6"],
      "--rtol applies to --command simulate or check, not inverse (which runs on the "
@@ -542,7 +542,8 @@ def test_a_piece_that_fails_for_good_comes_back_as_its_exception(where):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--settle-band", "1.5"], "--settle-band must be a fraction between 0 and 1, got 1.5"),
+    (["--settle-band", "1.5"], "--settle-band must be a number greater than 0 and less than 1, "
+                               "got 1.5"),
     (["--command", "inverse", "--dt", "20"], "--dt 20 s is longer than the trajectory's "
                                              "duration 15 s"),
     (["--command", "check", "--method", "RK45"], "--method applies to --command simulate; "

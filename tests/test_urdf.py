@@ -44,7 +44,7 @@ MEASURED: dict[str, dict[str, float]] = {}
 class Oracle:
     """anadyn's numeric M, F, B for an imported URDF and Pinocchio's model of the file.
 
-    ``method``: "recursive" is what the commands run (Kane's equations by Newton-Euler
+    ``method``: "recursive" is what the commands run on a tree (the Newton-Euler
     recursions, generated code); "kane" and "lagrange" are the closed forms derived
     symbolically by each formulation."""
 
@@ -116,7 +116,7 @@ def _anadyn_demand(robot):
     """(q, dq, ddq) -> (M ddq - F, B) of the recursive path's inverse dynamics."""
     from anadyn_cli.numeric.build import numeric_model
 
-    model = numeric_model(robot, "kane")
+    model = numeric_model(robot, evaluator="recursive")
     assert model._inverse is not None              # the RNEA, not M ddq - F from mfb
     return lambda q, dq, ddq: model.demand(0.0, q, dq, ddq)
 
@@ -126,7 +126,7 @@ def _anadyn_mfb(robot, method: str):
     if method == "recursive":
         from anadyn_cli.numeric.build import numeric_model
 
-        model = numeric_model(robot, "kane")
+        model = numeric_model(robot, evaluator="recursive")
         return lambda q, dq: model.mfb(0.0, q, dq)
     from anadyn_cli import derive
 
@@ -142,8 +142,9 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(a - b).max() / max(np.abs(b).max(), 1e-300))
 
 
-#: closed forms whose symbolic expressions take long to compile (so101: ~2e6 operations in M)
-LARGE = ("so101",)
+#: closed forms whose symbolic expressions take long to derive and compile (so101: ~2e6
+#: operations in M; panda: 30-50 s a formulation): the slow set checks them
+LARGE = ("so101", "panda")
 
 
 @pytest.mark.parametrize("path, method", [

@@ -18,3 +18,5 @@ COMMANDS = (equations, simulate, inverse, compare, accuracy, check, batch, impor
             show, animate)
 from .sweep import sweep; COMMANDS = (*COMMANDS, sweep)  # noqa: E402, E702  (one line: merges cleanly)
 from .export import export; from .linearize import linearize; COMMANDS = (*COMMANDS, export, linearize)  # noqa: E402, E702
+from .view import view; COMMANDS = (*COMMANDS, view)  # noqa: E402, E702
+from .optimize import optimize; COMMANDS = (*COMMANDS, optimize)  # noqa: E402, E702

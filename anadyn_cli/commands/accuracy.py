@@ -7,8 +7,9 @@ from pathlib import Path
 import typer
 
 from ..errors import ModelError
-from .common import (Formulation, FormulationOpt, OutOpt, PlotFormat, PlotFormatOpt, RobotArg,
-                     TEndOpt, out_dir)
+from .common import (Evaluator, EvaluatorOpt, FontSizeOpt, Formulation, FormulationOpt, OutOpt,
+                     PlotFormat, PlotFormatOpt, RobotArg, SizeOpt, TEndOpt, TitleOpt,
+                     figure_style, out_dir, prepared_model)
 
 
 def accuracy(
@@ -28,9 +29,13 @@ def accuracy(
     dt: float = typer.Option(None, "--dt", help="Output step in s (the error grid) "
                                                 "[default: from the file, else 0.01]."),
     formulation: Formulation = FormulationOpt,
+    evaluator: Evaluator = EvaluatorOpt,
     out: Path = OutOpt,
     plot: bool = typer.Option(True, help="Write accuracy.png (or .svg, .pdf)."),
     plot_format: PlotFormat = PlotFormatOpt,
+    size: str = SizeOpt,
+    title: str = TitleOpt,
+    font_size: float = FontSizeOpt,
     cache: bool = typer.Option(True, help="Reuse derived equations from the cache."),
 ) -> None:
     """Work-precision study: error against run time for every method and tolerance.
@@ -41,15 +46,15 @@ def accuracy(
     """
     import time
 
-    from ..numeric.build import numeric_model
     from .. import progress
+    from ..output import tables
+    from ..output.plots import styled
     from ..services import accuracy as service
 
     start = time.perf_counter()
     method_list = parse_methods(methods)
     tolerance_list = parse_tolerances(tolerances)
-    with progress.task(f"preparing the {formulation.value} equations"):
-        model = numeric_model(robot, formulation.value, use_cache=cache)
+    model = prepared_model(robot, formulation, evaluator, cache)
     info = model.info
     with progress.task(f"work-precision study of {info.name} "
                        f"({len(method_list)} methods x {len(tolerance_list)} tolerances)") as step:
@@ -59,13 +64,14 @@ def accuracy(
                                t_end=t_end, output_step=dt,
                                progress=lambda method, rtol: step.note(f"{method} rtol "
                                                                        f"{rtol:.0e}"))
-    result.formulation = formulation.value
-    written = service.write(result, out_dir(out, info.name), plot=plot,
-                            plot_format=plot_format.value)
+    with styled(figure_style(size, title, font_size)):
+        written = service.write(result, out_dir(out, info.name), plot=plot,
+                                plot_format=plot_format.value)
     typer.echo(f"{info.name}: {result.t_end:g} s, error over {len(result.grid)} rows, "
                f"atol = rtol * {service.ATOL_RATIO:g}, time = min of {result.repeats} runs, "
                f"budget {result.max_calls} RHS calls per run")
-    typer.echo(service.table(result))
+    screen = tables.terminal_lines()
+    typer.echo(service.table(result, header_every=screen - 3 if screen else None))
     typer.echo(f"time: references {result.timings['references']:.2f} s, study "
                f"{result.timings['study']:.2f} s; total {time.perf_counter() - start:.2f} s")
     typer.echo("wrote " + ", ".join(str(p) for p in written))

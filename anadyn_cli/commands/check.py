@@ -5,8 +5,8 @@ from pathlib import Path
 
 import typer
 
-from .common import (AtolOpt, DtOpt, Formulation, FormulationOpt, OutOpt, RobotArg, RtolOpt,
-                     TEndOpt, out_dir, time_line)
+from .common import (AtolOpt, DtOpt, Evaluator, EvaluatorOpt, Formulation, FormulationOpt,
+                     OutOpt, RobotArg, RtolOpt, TEndOpt, out_dir, prepared_model, time_line)
 
 
 def check(
@@ -24,6 +24,7 @@ def check(
     samples: int = typer.Option(200, "--samples", help="Points along the path where the "
                                                        "Jacobian's eigenvalues are taken."),
     formulation: Formulation = FormulationOpt,
+    evaluator: Evaluator = EvaluatorOpt,
     out: Path = OutOpt,
     cache: bool = typer.Option(True, help="Reuse derived equations from the cache."),
 ) -> None:
@@ -35,13 +36,11 @@ def check(
     """
     import time
 
-    from ..numeric.build import numeric_model
     from .. import progress
     from ..services import check as service
 
     start = time.perf_counter()
-    with progress.task(f"preparing the {formulation.value} equations"):
-        model = numeric_model(robot, formulation.value, use_cache=cache)
+    model = prepared_model(robot, formulation, evaluator, cache)
     info = model.info
     with progress.task(f"checking {info.name}: energy balance, eigenvalues, explicit probe, "
                        "conditioning"):

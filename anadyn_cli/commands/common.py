@@ -11,9 +11,16 @@ RobotArg = typer.Argument(..., help="Robot: a YAML or URDF file, or a library na
 
 
 class Formulation(str, Enum):
-    """How the equations are derived (never the integrator: that is --method)."""
+    """How the symbolic equations are derived (never the integrator: that is --method)."""
     kane = "kane"
     lagrange = "lagrange"
+
+
+class Evaluator(str, Enum):
+    """What runs the numbers (``numeric.build``): the Newton-Euler recursions or the
+    closed forms of a formulation."""
+    recursive = "recursive"
+    closed_form = "closed-form"
 
 
 class Format(str, Enum):
@@ -49,7 +56,12 @@ FLAGS = {"output_step": "--dt", "t_end": "--t-end", "rtol": "--rtol", "atol": "-
          "max_calls": "--max-calls", "numeric_tolerance": "--tol",
          "trajectory_tolerance": "--trajectory-tol", "symbolic_terms": "--symbolic-terms",
          "at": "--at", "efforts": "--efforts", "equilibrium": "--equilibrium",
-         "fragment": "--fragment"}
+         "fragment": "--fragment", "formulation": "--formulation", "evaluator": "--evaluator",
+         "seed": "--seed", "reference_calls": "--reference-calls", "frames": "--frames",
+         "jobs": "--jobs", "settle_band": "--settle-band",
+         "smoothing_window": "--smoothing-window", "smoothing_order": "--smoothing-order",
+         "symbolic": "--symbolic", "goal": "--to", "start": "--from", "objective": "--minimize",
+         "duration": "--duration", "intervals": "--intervals"}
 
 
 def flag_message(setting: str, reason: str) -> str:
@@ -77,17 +89,148 @@ DtOpt = typer.Option(None, "--dt", help="Output step in s [default: from the fil
 MethodOpt = typer.Option(None, help="Integrator (any case): auto, odeint, RK45, RK23, DOP853, "
                                     "Radau, BDF, LSODA [default: from the file, else auto].")
 
-FormulationOpt = typer.Option(Formulation.kane, "--formulation", case_sensitive=False,
-                              help="Formulation to integrate.")
+FormulationOpt = typer.Option(None, "--formulation", case_sensitive=False, show_default=False,
+                              help="Evaluate the closed forms of these equations: kane or "
+                                   "lagrange [default: none with the recursive evaluator, "
+                                   "else kane].")
+EvaluatorOpt = typer.Option(None, "--evaluator", case_sensitive=False, show_default=False,
+                            help="What runs the numbers: recursive (Newton-Euler recursions, "
+                                 "open trees only) or closed-form (the formulation's M, F, B) "
+                                 "[default: recursive on an open tree unless --formulation "
+                                 "is given; closed-form (kane) on a closed chain].")
+#: the formulation of commands that work on the closed forms only (no --evaluator)
+SymbolicFormulationOpt = typer.Option(Formulation.kane, "--formulation", case_sensitive=False,
+                                      help="Formulation of the symbolic equations: kane or "
+                                           "lagrange.")
+
+
+def prepared_model(robot: Path, formulation: Formulation | None, evaluator: Evaluator | None,
+                   cache: bool, timings: dict | None = None):
+    """The ``NumericModel`` a command runs (``numeric.build.numeric_model``), under a
+    progress line."""
+    from .. import progress
+    from ..numeric.build import numeric_model
+
+    what = (f"the {formulation.value} equations" if formulation is not None
+            else "the recursive equations" if evaluator is Evaluator.recursive
+            else "the equations")
+    with progress.task(f"preparing {what}"):
+        return numeric_model(robot, None if formulation is None else formulation.value,
+                             use_cache=cache, timings=timings,
+                             evaluator=None if evaluator is None else evaluator.value)
 
 
 def _usable_out(out: Path | None) -> Path | None:
-    """--out is checked when the command line is read, before any computation."""
-    if out is not None:
-        from ..files import check_dir
-        check_dir(out)
+    """--out (or, not given, results/ that holds the default folders) is checked when the
+    command line is read, before any computation."""
+    from ..files import check_dir
+
+    check_dir(out if out is not None else Path("results"),
+              "--out" if out is not None else "output folder")
     return out
 
 
 OutOpt = typer.Option(None, "--out", help="Output folder [default: results/NAME/].",
                       callback=_usable_out)
+
+
+def check_options(command):
+    """Check ``command``'s options when the command line is read, before any work:
+    each option whose flag sets a setting with a range (``errors.ALLOWED``, by
+    ``FLAGS``) parses its text and refuses a value outside that range in one line
+    (``--rtol must be a number greater than 0 and less than 1, got 1e+300``), and
+    every ``--out`` is checked as a folder (``files.check_dir``).  Returns ``command``."""
+    import inspect
+
+    from typer.models import OptionInfo
+
+    from ..errors import ALLOWED
+
+    settings = {flag: setting for setting, flag in FLAGS.items() if setting in ALLOWED}
+    for parameter in inspect.signature(command).parameters.values():
+        option = parameter.default
+        if not isinstance(option, OptionInfo):
+            continue
+        flags = [d for d in option.param_decls if d.startswith("--")] or [
+            "--" + parameter.name.replace("_", "-")]
+        if flags[0] == "--out" and option.callback is None:
+            option.callback = _usable_out
+        elif flags[0] in settings and option.parser is None:
+            option.parser = _setting_parser(settings[flags[0]])
+            option.metavar = option.metavar or ("INTEGER" if ALLOWED[settings[flags[0]]].whole
+                                                else "FLOAT")
+    return command
+
+
+def _setting_parser(setting: str):
+    from ..errors import check
+
+    return lambda value: check(setting, value)
+
+
+# -- figures for reports: --size, --title, --font-size on every command that plots --------
+def _figure_size(value: str | None) -> tuple[float, float] | None:
+    """--size WxH in inches (``6.4x4.8``), each side 1 to 50."""
+    if value is None:
+        return None
+    from ..errors import ModelError
+
+    width, sep, height = value.lower().replace(" ", "").partition("x")
+    try:
+        size = (float(width), float(height)) if sep else None
+    except ValueError:
+        size = None
+    if size is None or not all(1 <= v <= 50 for v in size):
+        raise ModelError(f"--size: expected WIDTHxHEIGHT in inches, each 1 to 50, e.g. "
+                         f"6.4x4.8; got {value!r}")
+    return size
+
+
+def _font_size(value: float | None) -> float | None:
+    if value is not None and not 4 <= value <= 40:
+        from ..errors import ModelError
+        raise ModelError(f"--font-size: expected 4 to 40 points, got {value:g}")
+    return value
+
+
+SizeOpt = typer.Option(None, "--size", metavar="WxH", callback=_figure_size,
+                       help="Figure size in inches, e.g. 6.4x4.8 (PNG: 200 pixels an inch) "
+                            "[default: fitted to the panels].")
+TitleOpt = typer.Option(None, "--title", help="Figure title [default: ROBOT: COMMAND].")
+FontSizeOpt = typer.Option(None, "--font-size", callback=_font_size,
+                           help="Axis-label font size in points; the other texts scale with "
+                                "it [default: 8-9].")
+
+
+def figure_style(size, title: str | None, font_size: float | None):
+    """The ``plots.FigureStyle`` of --size (already parsed), --title and --font-size."""
+    from ..output.plots import FigureStyle
+
+    return FigureStyle(size, title, font_size)
+
+
+def echo_table(text: str, full: str) -> None:
+    """Print ``text`` with its wide tables cut to the terminal's width
+    (``tables.fit``); ``full`` names the file that has every column."""
+    from ..output import tables
+
+    typer.echo(tables.fit(text, tables.terminal_width(), full))
+
+
+def echo_limits(exceeded: list, json_name: str) -> None:
+    """The joint limits a run passed, as warnings on stderr: one line each for up to
+    three, else one summary line (every one is in ``json_name``)."""
+    from ..numeric.limits import lines
+
+    found = lines(exceeded)
+    if len(found) > 3:
+        counts = {}
+        for e in exceeded:
+            counts[e.quantity] = counts.get(e.quantity, 0) + 1
+        first = min(exceeded, key=lambda e: e.first_time)
+        found = [f"{len(found)} joint limits exceeded ("
+                 + ", ".join(f"{q} {k}" for q, k in counts.items())
+                 + f"), first {first.name}'s {first.quantity} at t = "
+                 f"{first.first_time:g} s; details in {json_name}"]
+    for line in found:
+        typer.echo(f"anadyn: warning: {line}", err=True)

@@ -7,7 +7,7 @@ from typing import List, Optional
 import typer
 
 from ..errors import ModelError
-
+from .common import out_dir
 
 
 def compare(
@@ -28,13 +28,16 @@ def compare(
                                             "per robot (bounds its time); 0 turns it off."),
     t_end: float = typer.Option(None, "--t-end", help="Horizon of the trajectory check in s "
                                                       "[default: from the file, else 10]."),
-    out: Path = typer.Option(None, "--out", help="Output folder [default: results/]."),
+    out: Path = typer.Option(None, "--out", help="Output folder [default: results/NAME/; "
+                                                 "comparing several robots, OUT/NAME/ for "
+                                                 "each, OUT default results/]."),
     cache: bool = typer.Option(True, help="Reuse derived equations from the cache."),
 ) -> None:
     """Derive both formulations and check that M, F, B, ddq and the simulated motion agree.
 
-    Prints a table, writes compare.csv and compare.json; exit 1 on any
-    difference beyond the printed tolerances, naming the robot and quantity.
+    Prints a table of every robot (the summary), writes compare.csv and
+    compare.json to results/NAME/ of each robot; exit 1 on any difference beyond
+    the printed tolerances, naming the robot and quantity.
     """
     import time
 
@@ -46,7 +49,9 @@ def compare(
     result = service.compare(models, samples=samples, seed=seed, rtol=tol,
                              trajectory_tol=trajectory_tol, symbolic_terms=symbolic_terms,
                              t_end=t_end, use_cache=cache)
-    written = service.write(result, out if out is not None else Path("results"))
+    folder = (out_dir(out, models[0].name) if len(models) == 1      # several: a folder each
+              else out if out is not None else Path("results"))     # in it (service.write)
+    written = service.write(result, folder)
     typer.echo(service.settings_line(result))
     typer.echo(service.table(result))
     typer.echo(f"time: total {time.perf_counter() - start:.2f} s")

@@ -36,35 +36,11 @@ def equations(
     --energies and --kane-terms print what the chapter derives them from
     (with --matrices too, every part asked for is printed, in that order).
     """
+    from ..api import equations as text_of
     from ..model import load_robot
-    from .. import progress
-    from ..symbolic import render as printout
-    from ..symbolic import terms
-    from ..symbolic.formulations import derive
 
     model = load_robot(robot)
-    parts = []
-    what = "symbolic" if symbolic else "numeric"
-    if matrices or not (energies or kane_terms) or kane_terms:
-        with progress.task(f"deriving {formulation.value} equations of {model.name}"):
-            eom = derive(model, formulation.value, symbolic=symbolic)
-    if matrices or not (energies or kane_terms):
-        parts.append(printout.render(eom, fmt.value, "matrices" if matrices else "residual"))
-    if model.constraints is not None and (matrices or not (energies or kane_terms)):
-        from ..symbolic.formulations.constrained import render_constraints
-        parts.append(render_constraints(model, fmt.value, symbolic))
-    if energies:
-        with progress.task(f"energies of {model.name}"):
-            parts.append(terms.render_energies(terms.energies(model, symbolic), fmt.value,
-                                               model.q, printout.printer))
-    if kane_terms:
-        with progress.task(f"Kane's terms of {model.name}"):
-            parts.append(terms.render_kane_terms(terms.kane_terms(model, eom), fmt.value,
-                                                 printout.printer))
-    text = "\n".join(parts)
-    if fmt.value == "latex":
-        text = printout.latex_document(text, f"{model.name}: {formulation.value}, "
-                                             f"{what} parameters")
+    text = text_of(model, formulation.value, fmt.value, symbolic, matrices, energies, kane_terms)
     size = len(text.encode("utf-8"))
     if size > LARGE_OUTPUT:
         typer.echo(f"anadyn: note: the equations of {model.name} take {size / 1e6:.1f} MB "

@@ -14,13 +14,17 @@ class Language(str, Enum):
     c = "c"
     matlab = "matlab"
     latex = "latex"
+    casadi = "casadi"
+    jax = "jax"
 
 
 def export(
     robot: Path = RobotArg,
     lang: Language = typer.Option(..., "--lang", help="Language of the files: python (NAME.py), "
                                                       "c (NAME.h, NAME.c), matlab (NAME_*.m, "
-                                                      "for MATLAB and Octave), latex (NAME.tex)."),
+                                                      "for MATLAB and Octave), latex (NAME.tex), "
+                                                      "casadi (NAME_*.casadi: casadi.Function."
+                                                      "deserialize), jax (NAME_jax.py)."),
     out: Path = typer.Option(None, "--out", callback=OutOpt.callback,
                              help="Output folder [default: results/NAME/export/LANG/]."),
     symbolic: bool = typer.Option(False, help="Pass the parameters and gains in (a struct or "
@@ -32,7 +36,8 @@ def export(
                                               "\\input in a document that loads amsmath."),
 ) -> None:
     """Standalone files for M(q), F(t, q, dq), B(q), the control laws, the state derivative,
-    its analytic Jacobian and the inverse dynamics; or a LaTeX document of the equations.
+    its analytic Jacobian and the inverse dynamics; or a LaTeX document of the equations;
+    or (casadi, jax) forward and inverse dynamics and M(q) for CasADi or JAX.
     Written to --out [default: results/NAME/export/LANG/]."""
     import time
 
@@ -40,7 +45,7 @@ def export(
     from ..services import export as service
 
     start = time.perf_counter()
-    service.check_options(lang.value, fragment)
+    service.check_options(lang.value, fragment, symbolic)
     timings: dict = {}
     moment = time.perf_counter()
     model = load_robot(robot)
@@ -49,9 +54,13 @@ def export(
     folder = out if out is not None else Path("results") / model.name / "export" / lang.value
     written = service.write(result, folder)
     exported = result.model
-    typer.echo(f"{exported.robot_name}: {exported.n} coordinates, {exported.m} efforts, "
-               f"{exported.formulation}, "
-               + (f"{len(exported.parameters)} parameters passed in" if exported.symbolic
-                  else "parameters folded in"))
+    if lang.value in service.TRACED:
+        typer.echo(f"{exported.robot_name}: {exported.n} coordinates, {exported.m} efforts, "
+                   f"{', '.join(exported.functions)} from the recursive dynamics")
+    else:
+        typer.echo(f"{exported.robot_name}: {exported.n} coordinates, {exported.m} efforts, "
+                   f"{exported.formulation}, "
+                   + (f"{len(exported.parameters)} parameters passed in" if exported.symbolic
+                      else "parameters folded in"))
     typer.echo(time_line(timings, start))
     typer.echo("wrote " + ", ".join(str(p) for p in written))

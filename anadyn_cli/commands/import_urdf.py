@@ -38,31 +38,33 @@ def import_urdf(
     from ..model import library
     from ..model.loader import robot_from_text
     from ..model.urdf import import_file
+    from ..errors import display_name
     from ..errors import ModelError
 
     path = library.resolve(urdf)
+    shown = display_name(path)
     if path.suffix.lower() != ".urdf":
-        raise ModelError("not a URDF file (expected a .urdf file name)", source=str(path))
+        raise ModelError("not a URDF file (expected a .urdf file name)", source=shown)
     imported = import_file(path, fix_base=fix_base, inertia=inertia.value)
-    robot = robot_from_text(imported.text, f"{path} (imported)")   # what is written loads
+    robot = robot_from_text(imported.text, f"{shown} (imported)")   # what is written loads
     for warning in imported.warnings:
         typer.echo(f"anadyn: warning: {warning}", err=True)
     summary = (f"{robot.name}: {len(robot.coordinates)} coordinates, {len(robot.bodies)} "
                f"bodies, {len(robot.actuators)} actuators")
     if output is None:
         typer.echo(imported.text, nl=False)
-        typer.echo(f"anadyn: imported {path} ({summary})", err=True)
+        typer.echo(f"anadyn: imported {shown} ({summary})", err=True)
         return
     from ..files import write_text
 
     if output.is_dir():
         raise ModelError("is a folder; give the robot file's name, e.g. -o robot.yaml",
-                         source=str(output))
+                         source=display_name(output))
     if output.exists() and output.resolve() == path.resolve():
         raise ModelError("is the URDF file itself; give another name, e.g. -o robot.yaml",
-                         source=str(output))
+                         source=display_name(output))
     write_text(output, imported.text)
-    typer.echo(f"wrote {output} ({summary}) from {path}")
+    typer.echo(f"wrote {display_name(output)} ({summary}) from {shown}")
 
 
 import_urdf.cli_name = "import"

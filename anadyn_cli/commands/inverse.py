@@ -5,13 +5,15 @@ from pathlib import Path
 
 import typer
 
-from .common import (Formulation, FormulationOpt, OutOpt, PlotFormat, PlotFormatOpt, RobotArg,
-                     out_dir, time_line)
+from .common import (Evaluator, EvaluatorOpt, FontSizeOpt, Formulation, FormulationOpt, OutOpt,
+                     PlotFormat, PlotFormatOpt, RobotArg, SizeOpt, TitleOpt, echo_limits,
+                     echo_table, figure_style, out_dir, prepared_model, time_line)
 
 
 def inverse(
     robot: Path = RobotArg,
     formulation: Formulation = FormulationOpt,
+    evaluator: Evaluator = EvaluatorOpt,
     dt: float = typer.Option(None, "--dt", help="Output step in s (default: the file's "
                                                 "simulation.output_step, else 0.01)."),
     out: Path = OutOpt,
@@ -28,37 +30,70 @@ def inverse(
              "the whole motion when it is stable)."),
     plot: bool = typer.Option(True, help="Write inverse.png (or .svg, .pdf)."),
     plot_format: PlotFormat = PlotFormatOpt,
+    size: str = SizeOpt,
+    title: str = TitleOpt,
+    font_size: float = FontSizeOpt,
     rates: bool = typer.Option(False, "--rates", help="Plot the prescribed rates and "
                                                       "accelerations too."),
     cache: bool = typer.Option(True, help="Reuse derived equations from the cache."),
+    motion: Path = typer.Option(
+        None, "--motion", help="Measured motion instead of the file's trajectory: a CSV "
+                               "with the columns of inverse.csv (t, each coordinate, "
+                               "optionally d<q> and dd<q>; other columns ignored).",
+        dir_okay=False),
+    smoothing_window: int = typer.Option(
+        None, "--smoothing-window",
+        help="Samples of the Savitzky-Golay differentiator that gives --motion's missing "
+             "rates and accelerations (odd) [default: 21]."),
+    smoothing_order: int = typer.Option(
+        None, "--smoothing-order", help="Its polynomial degree (2 to 10) [default: 3]."),
 ) -> None:
-    """Efforts tau = B^-1 (M ddq - F) along the file's trajectory: inverse.csv, inverse.png.
+    """Efforts tau = B^-1 (M ddq - F) along the file's trajectory, or along a measured
+    motion (--motion data.csv): inverse.csv, inverse.png.
 
     Exit 1 when the round trip misses --roundtrip-tol; exit 2 when the file has
-    no trajectory or its actuators cannot produce an arbitrary motion.
+    no trajectory and no --motion is given, or its actuators cannot produce an
+    arbitrary motion.
     """
     import time
 
-    from ..numeric.build import numeric_model
     from .. import progress
+    from ..errors import ModelError
+    from ..numeric import measured
+    from ..numeric.build import describe
+    from ..output.plots import styled
     from ..services import inverse as service
 
     start = time.perf_counter()
     timings: dict = {}
-    with progress.task(f"preparing the {formulation.value} equations"):
-        model = numeric_model(robot, formulation.value, use_cache=cache, timings=timings)
+    if motion is None and (smoothing_window, smoothing_order) != (None, None):
+        raise ModelError("--smoothing-window and --smoothing-order apply to --motion data")
+    how = measured.Differentiator(
+        measured.DEFAULT_WINDOW if smoothing_window is None else smoothing_window,
+        measured.DEFAULT_ORDER if smoothing_order is None else smoothing_order)
+    model = prepared_model(robot, formulation, evaluator, cache, timings)
+    samples = None if motion is None else measured.read_motion(motion, model.coordinates, how)
+    if samples is None and robot.suffix.lower() == ".urdf":
+        raise ModelError("a URDF has no trajectory: give the motion as measured data "
+                         "(--motion data.csv with columns t, "
+                         f"{', '.join(model.coordinates[:3])}{', ...' * (model.n > 3)}) or "
+                         "write a robot file with 'anadyn import' and add a trajectory: "
+                         "section", source=str(robot))
     with progress.task(f"efforts of {model.name}"
                        + (" and the round trip" if roundtrip else "")):
         result = service.inverse(model, step=dt, roundtrip=roundtrip, tolerance=roundtrip_tol,
-                                 segment=roundtrip_segment, timings=timings)
-    with progress.task("writing the results"):
+                                 segment=roundtrip_segment, timings=timings, measured=samples)
+    with progress.task("writing the results"), styled(figure_style(size, title, font_size)):
         written = service.write(result, out_dir(out, model.name), plot=plot,
                                 plot_format=plot_format.value, rates=rates)
     typer.echo(f"{result.robot.name}: {result.kind} motion over {result.duration:g} s "
-               f"({result.formulation}); efforts at {len(result.t)} points in "
-               f"{timings['efforts'] * 1e3:.2f} ms")
-    typer.echo(service.table(result))
-    typer.echo(service.peaks(result))
+               f"({describe(result.formulation, result.evaluator)}); efforts at "
+               f"{len(result.t)} points in {timings['efforts'] * 1e3:.2f} ms")
+    if samples is not None:
+        typer.echo(f"measured motion: {samples.source}, {len(samples.t)} samples; "
+                   f"{samples.describe()}")
+    echo_table(service.table(result), "inverse.csv")
+    echo_table(service.sizing_table(result), "inverse.json")
     typer.echo(service.roundtrip_line(result))
     if result.constraints is not None:            # closed chains: the constraint forces
         typer.echo("constraint forces: " + ", ".join(
@@ -67,7 +102,5 @@ def inverse(
             + (f"; {result.note}" if result.note else ""))
     typer.echo(time_line(result.timings, start))
     typer.echo("wrote " + ", ".join(str(p) for p in written))
-    from ..numeric.limits import lines
-    for line in lines(result.limits):
-        typer.echo(f"anadyn: warning: {line}", err=True)
+    echo_limits(result.limits, "inverse.json")
     service.raise_if_failed(result)

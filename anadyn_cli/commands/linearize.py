@@ -7,7 +7,7 @@ import typer
 
 from enum import Enum
 
-from .common import Formulation, OutOpt, RobotArg, out_dir, time_line
+from .common import Formulation, OutOpt, RobotArg, echo_table, out_dir, time_line
 
 
 class Efforts(str, Enum):
@@ -55,6 +55,6 @@ def linearize(
     result = service.linearize(model, formulation.value, at, equilibrium, symbolic, timings,
                                efforts=efforts.value)
     written = service.write(result, out_dir(out, model.name))
-    typer.echo(service.report(result))
+    echo_table(service.report(result), "linearize_*.csv")
     typer.echo(time_line(timings, start))
     typer.echo("wrote " + ", ".join(str(p) for p in written))

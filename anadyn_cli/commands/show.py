@@ -6,7 +6,8 @@ from typing import List, Optional
 
 import typer
 
-from .common import OutOpt, PlotFormat, PlotFormatOpt, RobotArg, out_dir, time_line
+from .common import (FontSizeOpt, OutOpt, PlotFormat, PlotFormatOpt, RobotArg, SizeOpt, TitleOpt,
+                     figure_style, out_dir, time_line)
 
 
 def show(
@@ -17,26 +18,32 @@ def show(
              "unless deg); repeat it or separate with commas."),
     out: Path = OutOpt,
     plot_format: PlotFormat = PlotFormatOpt,
+    size: str = SizeOpt,
+    title: str = TitleOpt,
+    font_size: float = FontSizeOpt,
     cache: bool = typer.Option(True, help="Reuse the generated kinematics from the cache."),
 ) -> None:
     """Draw the robot: links, joints and their axes, body frames, centres of mass, names.
 
-    A 3-D view and the front, side and top views (up against gravity), from the
-    same kinematics as the dynamics.  Writes show.png (or .svg, .pdf) and
+    A 3-D view and the front, side and top views (up against gravity), or, for a
+    planar robot, the plane it moves in alone; from the same kinematics as the
+    dynamics.  Writes show.png (or .svg, .pdf) and
     show.json (every drawn point, in world axes).
     """
     import time
 
     from ..numeric.frames import frames
     from .. import progress
+    from ..output.plots import styled
     from ..services import show as service
 
     start = time.perf_counter()
     with progress.task("forward kinematics"):
         kinematics = frames(robot, use_cache=cache)
     drawing = service.draw(kinematics, at)
-    written = service.write_drawing(drawing, out_dir(out, kinematics.skeleton.name),
-                                    plot_format.value)
+    with styled(figure_style(size, title, font_size)):
+        written = service.write_drawing(drawing, out_dir(out, kinematics.skeleton.name),
+                                        plot_format.value)
     typer.echo(drawing.title())
     for name, body in service.points(drawing).items():
         ends = "; ".join(_xyz(p) for p in body["link_end"])

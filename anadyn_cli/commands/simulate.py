@@ -5,14 +5,16 @@ from pathlib import Path
 
 import typer
 
-from .common import (AtolOpt, DtOpt, Formulation, FormulationOpt, MethodOpt, OutOpt,
-                     PlotFormat, PlotFormatOpt, RobotArg, RtolOpt, TEndOpt, integrator_name,
-                     out_dir, time_line)
+from .common import (AtolOpt, DtOpt, Evaluator, EvaluatorOpt, FontSizeOpt, Formulation,
+                     FormulationOpt, MethodOpt, OutOpt, PlotFormat, PlotFormatOpt, RobotArg,
+                     RtolOpt, SizeOpt, TEndOpt, TitleOpt, echo_limits, echo_table,
+                     figure_style, integrator_name, out_dir, prepared_model, time_line)
 
 
 def simulate(
     robot: Path = RobotArg,
     formulation: Formulation = FormulationOpt,
+    evaluator: Evaluator = EvaluatorOpt,
     method: str = MethodOpt,
     rtol: float = RtolOpt,
     atol: float = AtolOpt,
@@ -21,6 +23,9 @@ def simulate(
     out: Path = OutOpt,
     plot: bool = typer.Option(True, help="Write simulate.png (or .svg, .pdf)."),
     plot_format: PlotFormat = PlotFormatOpt,
+    size: str = SizeOpt,
+    title: str = TitleOpt,
+    font_size: float = FontSizeOpt,
     rates: bool = typer.Option(False, "--rates", help="Plot the rates too (a panel each)."),
     animate: bool = typer.Option(False, "--animate",
                                  help="Also write animate.gif (and animate.mp4 when ffmpeg "
@@ -33,31 +38,33 @@ def simulate(
     """Direct dynamics under the robot's feedback laws: simulate.csv and simulate.png."""
     import time
 
-    from ..numeric.build import numeric_model
     from .. import progress
+    from ..output.plots import styled
     from ..services import simulate as service
 
     start = time.perf_counter()
     timings: dict = {}
-    with progress.task(f"preparing the {formulation.value} equations"):
-        model = numeric_model(robot, formulation.value, use_cache=cache, timings=timings)
+    model = prepared_model(robot, formulation, evaluator, cache, timings)
     info = model.info
     with progress.task(f"integrating {info.name}" + (" and estimating the error"
                                                      if estimate else "")):
         result = service.simulate(model, method=integrator_name(method), rtol=rtol, atol=atol,
                                   t_end=t_end, output_step=dt, estimate_error=estimate,
                                   timings=timings)
-    with progress.task("writing the results"):
+    with progress.task("writing the results"), styled(figure_style(size, title, font_size)):
         written = service.write(result, out_dir(out, info.name), plot=plot,
                                 plot_format=plot_format.value, rates=rates)
     note = ""
     if animate:
         from .animate import animate_run
-        movie, note = animate_run(result, robot, out_dir(out, info.name), cache=cache,
-                                  timings=result.timings)
+        n = len(info.coordinates)
+        movie, note = animate_run(robot, result.t, result.x[:, :n], f"{info.name}: simulate",
+                                  out_dir(out, info.name), cache=cache, timings=result.timings,
+                                  computation={"formulation": result.formulation,
+                                               "evaluator": result.evaluator})
         written = written[:-1] + movie[:-1] + written[-1:] + movie[-1:]
     solution = result.solution
-    typer.echo(service.table(result))
+    echo_table(service.table(result), "simulate.csv")
     if solution.reason:
         typer.echo(f"method: auto -> {solution.method}: {solution.reason}")
     else:
@@ -73,6 +80,4 @@ def simulate(
     if note:
         typer.echo(f"animation: {note}")
     typer.echo("wrote " + ", ".join(str(p) for p in written))
-    from ..numeric.limits import lines
-    for line in lines(result.limits):
-        typer.echo(f"anadyn: warning: {line}", err=True)
+    echo_limits(result.limits, "simulate.json")

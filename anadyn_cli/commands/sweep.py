@@ -6,7 +6,8 @@ from typing import List
 
 import typer
 
-from .common import (AtolOpt, Formulation, FormulationOpt, OutOpt, RobotArg, RtolOpt, TEndOpt,
+from .common import (AtolOpt, FontSizeOpt, Formulation, OutOpt, RobotArg, RtolOpt, SizeOpt,
+                     SymbolicFormulationOpt, TEndOpt, TitleOpt, echo_table, figure_style,
                      out_dir, time_line)
 
 
@@ -35,7 +36,7 @@ def sweep(
     scheduler: str = typer.Option(None, "--scheduler", metavar="ADDRESS",
                                   help="Run on a Dask cluster, e.g. tcp://10.0.0.5:8786 "
                                        "[default: $ANADYN_SCHEDULER, else local]."),
-    formulation: Formulation = FormulationOpt,
+    formulation: Formulation = SymbolicFormulationOpt,
     method: str = typer.Option(None, help="Integrator (simulate) [default: from the file, "
                                           "else auto]."),
     rtol: float = RtolOpt,
@@ -57,6 +58,9 @@ def sweep(
                                         help="Check: scaled condition-number threshold."),
     out: Path = OutOpt,
     plot: bool = typer.Option(True, help="Write sweep.png."),
+    size: str = SizeOpt,
+    title: str = TitleOpt,
+    font_size: float = FontSizeOpt,
     cache: bool = typer.Option(True, help="Reuse the derived equations from the cache."),
 ) -> None:
     """Run ROBOT for many values of its parameters or gains, derived and compiled once.
@@ -107,8 +111,11 @@ def sweep(
                 step.advance(done - step.completed, detail=f"{failed} not ok" if failed else "")
 
             result = service.run(plan, jobs=jobs, scheduler=client, on_progress=advance)
-    written = service.write(result, out_dir(out, plan.robot.name), plot=plot)
-    typer.echo(service.table(result))
+    from ..output.plots import styled
+
+    with styled(figure_style(size, title, font_size)):
+        written = service.write(result, out_dir(out, plan.robot.name), plot=plot)
+    echo_table(service.table(result), "sweep.csv")
     for line in service.lines(result):
         typer.echo(line)
     typer.echo(time_line({k: v for k, v in result.timings.items()

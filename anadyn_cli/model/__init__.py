@@ -1,6 +1,6 @@
 """Robot descriptions: YAML -> frozen, validated dataclasses.
 
-Names load on first use: ``model.yamlsource`` must stay importable without
+Names load on first use: ``model.yamlsource`` and ``model.yamlschema`` must stay importable without
 SymPy (the cached fast path reads files through it).
 """
 from importlib import import_module

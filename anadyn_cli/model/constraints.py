@@ -59,7 +59,7 @@ import sympy as sp
 
 from ..errors import ModelError
 from .names import GROUND
-from .yamlsource import describe_value as _kind
+from .yamlschema import describe_value as _kind
 from .robot import Body, Coordinate
 
 DIRECTIONS = ("x", "y", "z")
@@ -376,21 +376,17 @@ class Geometry:
             norm = np.linalg.norm(axis)
             axis = axis / norm if norm > 0 else axis
             origin = np.array([_number(a, values) for a in joint.origin])
+            kind = joint.joint_type
             move = (sp.lambdify(q_symbols, joint.displacement.xreplace(values), modules="math")
-                    if joint.type != "fixed" else None)
-            self.items.append((body.name, body.parent, joint.type, C, axis, origin, move))
+                    if kind.moving else None)
+            self.items.append((body.name, body.parent, kind, C, axis, origin, move))
 
     def poses(self, q) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Body name -> (R, p): body axes to world axes, body origin in world axes."""
         poses = {GROUND: (np.eye(3), np.zeros(3))}
         for name, parent, kind, C, axis, origin, move in self.items:
             R_p, p_p = poses[parent]
-            if kind == "revolute":
-                R_l, o = C @ _rotation(axis, float(move(*q))), origin
-            elif kind == "prismatic":
-                R_l, o = C, origin + C @ axis * float(move(*q))
-            else:
-                R_l, o = C, origin
+            R_l, o = kind.transform(C, origin, axis, float(move(*q)) if move else 0.0, _rotation)
             poses[name] = (R_p @ R_l, p_p + R_p @ o)
         return poses
 

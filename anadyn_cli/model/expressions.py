@@ -5,11 +5,13 @@ runs nothing) and every node is checked against a whitelist before it is
 turned into a SymPy object node by node.  Nothing ever reaches ``eval``,
 ``sympify`` or ``parse_expr``.
 
-Allowed: numbers, the names the caller passes in, ``pi``, the operators
-``+ - * / **`` and calls of FUNCTIONS with positional arguments.  Exact
-numbers are kept below MAX_EXACT_BITS (larger ones are floating point, and
-overflow is an error), so that ``10**10**10`` or a tower of powers neither
-hangs nor eats memory.
+Allowed: decimal numbers (``12``, ``0.5``, ``1e-3``: not Python's ``1_0``,
+``0x10`` or ``0o7``), the names the caller passes in, ``pi``, the operators
+``+ - * / **`` and calls of FUNCTIONS with positional arguments, nested at
+most MAX_DEPTH deep (a chain ``a + b - c ...`` of one precedence counts as
+one level).  Exact numbers are kept below MAX_EXACT_BITS (larger ones are
+floating point, and overflow is an error), so that ``10**10**10`` or a tower
+of powers neither hangs nor eats memory.
 """
 from __future__ import annotations
 
@@ -18,6 +20,7 @@ import cmath
 import datetime
 import difflib
 import math
+import re
 from collections.abc import Mapping
 
 import sympy as sp
@@ -35,6 +38,11 @@ FUNCTIONS: dict[str, tuple[object, tuple[int, ...] | None]] = {
 CONSTANTS = {"pi": sp.pi}
 
 MAX_LENGTH = 2000          # characters in one expression
+MAX_DEPTH = 100            # nesting of calls, parentheses, signs and powers
+#: a number as its text reads (Python would also take 1_0, 0x10, 0o7, 0b1)
+DECIMAL = re.compile(r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?\Z")
+#: functions with a kink or a jump, written or made by SymPy (sqrt(q**2) = Abs(q))
+KINKS = (sp.Abs, sp.sign, sp.Min, sp.Max, sp.Heaviside, sp.DiracDelta, sp.Piecewise)
 MAX_EXACT_EXPONENT = 64    # larger numeric powers are computed in floating point
 MAX_EXACT_BITS = 4096      # exact numbers beyond this are computed in floating point
 #: functions with a kink or a jump: not allowed where the expression is differentiated
@@ -100,20 +108,61 @@ def parse(value: object, names: Mapping[str, sp.Expr],
         where = f" at column {err.offset}" if err.offset else " at the end"
         raise ExpressionError(f"syntax error in {shown!r}{where}{why}{hint}; "
                               "write an arithmetic expression such as 2*L1*cos(q1)") from None
-    except (ValueError, RecursionError, MemoryError):
+    except (RecursionError, MemoryError):
+        raise ExpressionError(TOO_DEEP) from None
+    except ValueError:
         raise ExpressionError(f"cannot parse {shown!r}") from None
+    _check_depth(tree.body)
+    _check_numbers(tree.body, text)
     try:
         result = _Builder(names, unavailable or {}, smooth).build(tree.body)
         infinite = result.has(sp.zoo, sp.oo, -sp.oo, sp.nan)
     except ExpressionError:
         raise
     except (RecursionError, MemoryError):
-        raise ExpressionError("expression nested too deeply") from None
+        raise ExpressionError(TOO_DEEP) from None
     except (TypeError, ValueError, ArithmeticError) as err:   # SymPy refusing, e.g. max(I, 1)
         raise ExpressionError(f"cannot evaluate {shown!r} ({_shorten(str(err))})") from None
     if infinite:
         raise ExpressionError(f"{shown!r} is not finite (division by zero or overflow)")
+    if smooth:
+        kinks = [f for f in result.atoms(*KINKS) if f.free_symbols]
+        if kinks:
+            raise ExpressionError(
+                f"{shown!r} is {_shorten(str(result))}: {_shorten(str(kinks[0]))} has a kink "
+                "or a jump, not allowed here (this expression is differentiated twice)")
     return result
+
+
+TOO_DEEP = f"expression too deeply nested (limit {MAX_DEPTH})"
+
+
+def _check_depth(tree: ast.AST) -> None:
+    """ExpressionError if the syntax tree nests deeper than MAX_DEPTH; a left-deep
+    chain of binary operators (a + b + c, as the parser builds it) is one level,
+    as ``_Builder`` walks it without recursion."""
+    stack = [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            raise ExpressionError(TOO_DEEP)
+        for child in ast.iter_child_nodes(node):
+            if not isinstance(child, ast.expr):            # ast.Load, operators
+                continue
+            chained = isinstance(node, ast.BinOp) and child is node.left
+            stack.append((child, depth if chained else depth + 1))
+
+
+def _check_numbers(tree: ast.AST, text: str) -> None:
+    """ExpressionError for a number not written as a decimal (``1_0``, ``0x10``)."""
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) \
+                and not isinstance(node.value, bool):
+            written = ast.get_source_segment(text, node) or ""
+            if not DECIMAL.match(written):
+                raise ExpressionError(f"{_shorten(written, 30)!r} is not a decimal number; "
+                                      "write digits, a point and an exponent, such as "
+                                      "1000, 0.5 or 1e-3 (no underscores, 0x, 0o or 0b)")
 
 
 def _shorten(text: str, limit: int = 60) -> str:
@@ -179,7 +228,7 @@ def approximate(expr: sp.Expr, values: Mapping[sp.Symbol, object] | None = None)
         raise ExpressionError(f"{_shorten(str(expr))} overflows in floating point (the "
                               "largest number allowed is about 1.8e308)") from None
     except RecursionError:
-        raise ExpressionError("expression nested too deeply") from None
+        raise ExpressionError(TOO_DEEP) from None
 
 
 def _finite(value: complex) -> bool:

@@ -128,14 +128,14 @@ def joint_limit_infos(robot) -> tuple[JointLimitInfo, ...]:
     result = []
     for body in robot.bodies:
         limits = body.joint.limits
-        if body.joint.type == "fixed" or all(getattr(limits, k) is None
-                                              for k in ("lower", "upper", "velocity")):
+        if not body.joint.joint_type.moving or all(getattr(limits, k) is None
+                                                   for k in ("lower", "upper", "velocity")):
             continue
         theta = body.joint.displacement.xreplace(values)
         rate = sp.Add(*[sp.diff(theta, c.symbol) * c.rate_symbol for c in robot.coordinates])
         coordinate = next((c for c in robot.coordinates if theta == c.symbol), None)
         label = coordinate.name if coordinate else f"{body.name} ({theta.evalf(6)})"
-        unit = "rad" if body.joint.type == "revolute" else "m"
+        unit = body.joint.joint_type.unit
         result.append(JointLimitInfo(label, unit, expression_tree(theta), expression_tree(rate),
                                      *(_float(getattr(limits, k)) for k in
                                        ("lower", "upper", "velocity"))))

@@ -35,9 +35,10 @@ from .names import GROUND, IDENTIFIER, RESERVED_NAMES, default_name
 from .robot import (JOINT_TYPES, Actuator, Body, Controller, Coordinate, Joint, JointLimits,
                     Load, Robot, Simulation, Trajectory, frozen_map)
 from .info import METHODS
-from .yamlsource import describe_value as _kind, load, read_text
+from .yamlschema import describe_value as _kind, load
+from .yamlsource import read_text
 
-TRAJECTORY_KINDS = ("cycloidal", "quintic", "expression")
+TRAJECTORY_KINDS = ("cycloidal", "quintic", "expression", "waypoints")
 MAX_BODIES = 100          # symbolic derivation is out of reach long before this
 MAX_COORDINATES = 100
 MAX_ROWS = 1_000_000      # simulation.t_end / simulation.output_step
@@ -51,17 +52,37 @@ TOP_KEYS = ("name", "description", "parameters", "gravity", "coordinates", "bodi
             "constraints")
 
 
-def load_robot(path: str | Path) -> Robot:
-    """Read and validate a robot file."""
+def load_robot(path: str | Path, parameters: Mapping[str, object] | None = None) -> Robot:
+    """Read and validate a robot file (``parameters``: see ``robot_from_text``)."""
     text, source = read_text(path)
-    return robot_from_text(text, source)
+    return robot_from_text(text, source, parameters)
 
 
-def robot_from_text(text: str, source: str = "<robot>") -> Robot:
-    """Validate YAML text describing a robot (``source`` names it in errors)."""
-    data, lines = load(text, source)
-    digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
-    return _RobotBuilder(Cursor(data, "", source, lines), digest, default_name(source)).build()
+def robot_from_text(text: str, source: str = "<robot>",
+                    parameters: Mapping[str, object] | None = None) -> Robot:
+    """Validate YAML text describing a robot (``source`` names it in errors).
+
+    ``parameters``: values (numbers, or expressions as the file writes them) that
+    replace those of parameters the file defines, validated as if written there;
+    the robot's digest covers them.
+
+    Text that a URDF import produced (``urdf.place``) is reported at its place
+    in the URDF (joint and link names), never at a line of the generated YAML."""
+    try:
+        data, lines = load(text, source)
+        overrides = dict(parameters or {})
+        keyed = text + (f"\n# parameters {sorted(overrides.items())!r}" if overrides else "")
+        digest = hashlib.sha256(keyed.encode("utf-8", "surrogatepass")).hexdigest()
+        return _RobotBuilder(Cursor(data, "", source, lines), digest,
+                             default_name(source), overrides).build()
+    except ModelError as err:
+        from .urdf import place
+
+        where = place(text, err.path)
+        if where is None:
+            raise
+        raise ModelError(err.reason, source=err.source, path=where + (
+            f" (imported as {err.path})" if err.path else "")) from None
 
 
 class Cursor:
@@ -162,8 +183,10 @@ class Cursor:
 class _RobotBuilder:
     """Validates one file section by section, growing the table of known names."""
 
-    def __init__(self, root: Cursor, digest: str, default_name: str):
+    def __init__(self, root: Cursor, digest: str, default_name: str,
+                 overrides: Mapping[str, object] | None = None):
         self.root, self.digest, self.default_name = root, digest, default_name
+        self.overrides = dict(overrides or {})     # parameter values given by the caller
         self.symbols: dict[str, sp.Expr] = {}      # parameters
         self.owner: dict[str, str] = {}            # every name in the file -> what it is
         self.definitions: dict[str, sp.Expr] = {}
@@ -195,6 +218,10 @@ class _RobotBuilder:
         self.prescan(top)
         if "parameters" in top:
             self.parameters(top["parameters"])
+        unknown = sorted(set(self.overrides) - set(self.definitions))
+        if unknown:
+            raise self.root.error(f"parameters: the file defines no {', '.join(unknown)} (it "
+                                  f"defines: {', '.join(self.definitions) or 'none'})")
         gravity = self.constant_vector(top.get("gravity"))
         coordinate_cursors = self.coordinate_names(top["coordinates"])
         bodies, units, body_cursors = self.bodies(top["bodies"])
@@ -247,6 +274,8 @@ class _RobotBuilder:
         """name: number, or an expression of the parameters above it."""
         for key, item in cursor.mapping().items():
             name = self.key_name(item, key, "parameter name")
+            if name in self.overrides:           # the caller's value, at the file's place
+                item = Cursor(self.overrides[name], item.path, item.source, item.lines)
             self.claim(item, name, "a parameter")
             definition = item.expr(self.symbols, self.unavailable(self.symbols))
             self.check_numeric(item, definition)
@@ -274,7 +303,7 @@ class _RobotBuilder:
         except expressions.ExpressionError as err:      # overflows: not evaluated exactly
             raise cursor.error(str(err)) from None
         except (RecursionError, MemoryError):
-            raise cursor.error("expression nested too deeply") from None
+            raise cursor.error(expressions.TOO_DEEP) from None
         except (TypeError, ValueError, ArithmeticError):
             raise cursor.error(f"cannot evaluate {_short(value)} to a number") from None
         if number.imag != 0 or not math.isfinite(number.real):
@@ -431,7 +460,8 @@ class _RobotBuilder:
                                              f"{_kind(parent)}")
         joint = self.joint(fields["joint"], free_coordinates, units)
         mass = self.constant(fields["mass"])
-        self.positive(fields["mass"], mass, "a mass in kg")
+        if joint.type != "fixed" or self.check_numeric(fields["mass"], mass) != 0:
+            self.positive(fields["mass"], mass, "a mass in kg")   # a welded body may be massless
         com = self.constant_vector(fields.get("com"))
         inertia = self.inertia(fields["inertia"]) if "inertia" in fields else sp.zeros(3, 3)
         return Body(name, parent, joint, mass, com, sp.ImmutableMatrix(inertia))
@@ -762,9 +792,17 @@ class _RobotBuilder:
         return tuple(result)
 
     def trajectory(self, cursor: Cursor) -> Trajectory:
-        fields = cursor.mapping(("kind", "duration", "from", "to", "expressions"),
-                                required=("kind", "duration"))
+        fields = cursor.mapping(("kind", "duration", "from", "to", "expressions", "points",
+                                 "durations", "shape"), required=("kind",))
         kind = fields["kind"].choice(TRAJECTORY_KINDS)
+        if kind == "waypoints":                  # poses and durations (model.waypoints)
+            from . import waypoints
+            return waypoints.read(self, cursor, fields)
+        for key in ("points", "durations", "shape"):
+            if key in fields:
+                raise fields[key].error(f"'{key}' belongs to kind 'waypoints'")
+        if "duration" not in fields:
+            raise cursor.error("missing required key 'duration'")
         duration = self.constant(fields["duration"])
         T = self.positive(fields["duration"], duration, "a duration in s")
         duration = duration.xreplace(self.values)

@@ -6,12 +6,14 @@ whose M is singular everywhere before anything is derived.
 with W_i, V_i the partial angular velocities of body i and the partial
 velocities of its mass centre (3 x n, world axes), built from the root out:
 
-    revolute   W_i = W_p + a_w (d theta/dq)       Vo_i = Vo_p + W_p x (o_i - o_p)
-    prismatic  W_i = W_p                          Vo_i = Vo_p + W_p x (o_i - o_p) + a_w (dd/dq)
-    fixed      W_i = W_p                          Vo_i = Vo_p + W_p x (o_i - o_p)
-    V_i = Vo_i + W_i x (c_i - o_i)
+    W_i  = W_p [+ s_w (d theta/dq)]
+    Vo_i = Vo_p + W_p x (o_i - o_p) [+ v_w (d theta/dq)]
+    V_i  = Vo_i + W_i x (c_i - o_i)
 
-(a_w the joint axis in world axes, o the body origins, c the mass centre).
+((s_w, v_w) the joint's motion subspace in world axes, ``joints``: (a_w, -) for
+a revolute joint, (-, a_w) for a prismatic one, none for a fixed one; a_w the
+joint axis in world axes, theta the displacement, o the body origins, c the mass
+centre).
 It shares no code with ``anadyn_cli.kinematics``: the loader uses it before
 any symbolic work, and the tests compare it with the derived M.
 """
@@ -79,7 +81,7 @@ class MassMatrix:
             rates = [sp.diff(displacement, s) if s in displacement.free_symbols
                      else sp.Integer(0) for s in self.q]
             self.bodies.append(dict(
-                name=body.name, parent=body.parent, type=joint.type,
+                name=body.name, parent=body.parent, joint_type=joint.joint_type,
                 axis=np.array([number(a) for a in joint.axis]),
                 origin=np.array([number(a) for a in joint.origin]),
                 C=_rpy(*(number(a) for a in joint.rpy)),
@@ -103,16 +105,17 @@ class MassMatrix:
             o_i = o_p + R_p @ b["origin"]
             W, Vo = W_p, Vo_p + _cross_columns(W_p, o_i - o_p)
             R_i = R_j
-            if b["type"] != "fixed":
-                a_w = R_j @ b["axis"]
+            kind = b["joint_type"]
+            if kind.moving:
+                angular, linear = kind.subspace(R_j @ b["axis"])        # world axes
                 d = _number(b["displacement"], state)
                 grad = np.array([_number(r, state) for r in b["rates"]])
-                if b["type"] == "revolute":
+                if angular is not None:
                     R_i = R_j @ _rotation(b["axis"], d)
-                    W = W_p + np.outer(a_w, grad)
-                else:
-                    o_i = o_i + a_w * d
-                    Vo = Vo_p + _cross_columns(W_p, o_i - o_p) + np.outer(a_w, grad)
+                    W = W_p + np.outer(angular, grad)
+                if linear is not None:
+                    o_i = o_i + linear * d
+                    Vo = Vo_p + _cross_columns(W_p, o_i - o_p) + np.outer(linear, grad)
             frames[b["name"]] = (R_i, o_i, W, Vo)
             r = R_i @ b["com"]
             V = Vo + _cross_columns(W, r)

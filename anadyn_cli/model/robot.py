@@ -13,12 +13,14 @@ from typing import TYPE_CHECKING, Mapping
 import sympy as sp
 
 from .info import Simulation
+from .joints import JOINT_TYPES as _JOINT_TYPES, JointType
 
 if TYPE_CHECKING:
     from .constraints import Constraints
 
 Vector = tuple[sp.Expr, sp.Expr, sp.Expr]
-JOINT_TYPES = ("revolute", "prismatic", "fixed")
+#: the type words a robot file accepts (``joints.JOINT_TYPES``)
+JOINT_TYPES = tuple(_JOINT_TYPES)
 
 
 def frozen_map(items) -> Mapping:
@@ -61,6 +63,11 @@ class Joint:
     stiffness: sp.Expr = sp.Integer(0)
     rest: sp.Expr = sp.Integer(0)
     limits: "JointLimits" = field(default_factory=lambda: JointLimits())
+
+    @property
+    def joint_type(self) -> JointType:
+        """What the type does: transform, motion subspace, coordinates (``joints``)."""
+        return _JOINT_TYPES[self.type]
 
 
 @dataclass(frozen=True)
@@ -169,3 +176,22 @@ class Robot:
 
     def body(self, name: str) -> Body:
         return next(b for b in self.bodies if b.name == name)
+
+    def __repr__(self) -> str:
+        """One line: ``<Robot rr: 2 DOF (q1, q2), 2 bodies, 2 actuators; robots/rr.yaml>``."""
+        names = ", ".join(c.name for c in self.coordinates[:6])
+        more = ", ..." if len(self.coordinates) > 6 else ""
+        return (f"<Robot {self.name}: {len(self.coordinates)} DOF ({names}{more}), "
+                f"{len(self.bodies)} bodies, {len(self.actuators)} actuators; {self.source}>")
+
+    def _repr_html_(self) -> str:
+        """Jupyter: the one-line summary and a table of the bodies and their joints."""
+        from html import escape
+
+        values = self.parameter_substitution()
+        rows = "".join(
+            f"<tr><td>{escape(b.name)}</td><td>{escape(b.parent)}</td><td>{b.joint.type}</td>"
+            f"<td>{escape(str(b.joint.displacement))}</td>"
+            f"<td>{float(b.mass.xreplace(values)):.6g}</td></tr>" for b in self.bodies)
+        return (f"<p>{escape(repr(self))}</p><table><tr><th>body</th><th>parent</th>"
+                f"<th>joint</th><th>displacement</th><th>mass (kg)</th></tr>{rows}</table>")

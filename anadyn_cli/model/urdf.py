@@ -2,7 +2,10 @@
 
 URDF is XML from strangers, so it is read with ``defusedxml`` (expat underneath,
 with entity declarations and external references refused: no "billion laughs",
-no file or network access) and capped at MAX_BYTES.  Every mistake is one
+no file or network access) and capped at MAX_BYTES.  Numbers must be decimals
+as written (DECIMAL: no ``1_0``, which float() reads as 10); names, however
+odd, end up as identifiers, in double-quoted strings or in escaped comments,
+never as YAML structure (``render``).  Every mistake is one
 ``ModelError`` line naming the file and the element, e.g.
 ``arm.urdf: joint 'elbow': <limit lower="1" upper="-1">: lower is above upper``.
 
@@ -35,6 +38,7 @@ both are stated in ``Imported.warnings``, never silent.
 """
 from __future__ import annotations
 
+import functools
 import math
 import re
 import stat
@@ -44,9 +48,12 @@ from pathlib import Path
 
 import numpy as np
 
+import yaml
+
 from .. import __version__
-from ..errors import ModelError
+from ..errors import ModelError, display_name, printable
 from .names import GROUND, IDENTIFIER, RESERVED_NAMES
+from .yamlschema import Dumper
 
 MAX_BYTES = 4 * 1024 * 1024       # expat reads this in ~0.1 s; URDFs are ~10-200 kB
 GRAVITY = 9.81                    # m/s^2 along -z of the root link (URDF, ROS, Pinocchio)
@@ -57,6 +64,9 @@ SMALLEST, LARGEST = 1e-30, 1e30   # anadyn's number range (model.loader); smalle
 # the loader's thresholds for a valid inertia (model.loader.inertia)
 PSD_TOLERANCE, TRIANGLE_TOLERANCE = 1e-12, 1e-9
 XACRO = ("http://www.ros.org/wiki/xacro", "http://wiki.ros.org/xacro")
+#: a URDF number as its text reads (xs:double's decimal form); Python's float()
+#: would also take "1_0", "infinity" and " nan"
+DECIMAL = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?\Z")
 Pose = tuple[np.ndarray, np.ndarray]           # (R, p): rotation and origin, parent axes
 
 
@@ -195,10 +205,29 @@ class _Joint:
         return rpy_matrix(self.rpy), self.origin
 
 
+#: YAML text an import in this process produced -> the URDF place of its key
+#: paths (the last few imports), for ``place``
+_PLACES: dict[str, dict[str, str]] = {}
+
+
+def place(text: str, path: str | None) -> str | None:
+    """Where in the URDF the key ``path`` of the robot ``text`` comes from, e.g.
+    ``joint 'elbow' (child link 'forearm')`` for ``bodies[2].mass``, when an
+    import in this process produced ``text``; None otherwise."""
+    places = _PLACES.get(text)
+    if places is None:
+        return None
+    path = path or ""
+    while path and path not in places:        # bodies[2].joint.axis -> bodies[2] -> ""
+        shorter = re.sub(r"(\.[^.\[]*|\[\d+\])$", "", path)
+        path = shorter if shorter != path else ""
+    return places[path]
+
+
 def read_urdf(path: str | Path) -> bytes:
     """The file's bytes; ModelError if it is missing, not a regular file or over MAX_BYTES."""
     path = Path(path)
-    name = str(path)
+    name = display_name(path)
     try:
         info = path.stat()
         if not stat.S_ISREG(info.st_mode):
@@ -219,8 +248,9 @@ def read_urdf(path: str | Path) -> bytes:
 
 def import_file(path: str | Path, fix_base: bool = False,
                 inertia: str = "refuse") -> Imported:
-    """Read and import the URDF file at ``path``."""
-    return import_urdf(read_urdf(path), str(path), fix_base=fix_base, inertia=inertia)
+    """Read and import the URDF file at ``path`` (named by ``display_name``)."""
+    return import_urdf(read_urdf(path), display_name(path), fix_base=fix_base,
+                       inertia=inertia)
 
 
 def import_urdf(raw: bytes | str, source: str, fix_base: bool = False,
@@ -284,15 +314,20 @@ class _Importer:
         if "${" in text or "$(" in text:
             raise self.error(where, f"{shown}: an unexpanded xacro expression; expand the "
                                     "file with xacro first")
-        try:
-            values = [float(v) for v in text.split()]
-        except ValueError:
-            raise self.error(where, f"{shown}: expected {count} number"
-                                    f"{'s' if count > 1 else ''}") from None
+        words = text.split()
+        if any(word.lower().lstrip("+-") in ("inf", "infinity", "nan") for word in words):
+            raise self.error(where, f"{shown}: numbers must be finite")
+        odd = next((word for word in words if not DECIMAL.match(word)), None)
+        if odd is not None:
+            plural = "s" if count > 1 else ""
+            raise self.error(where, f"{shown}: expected {count} number{plural}" + (
+                f"; {odd!r} is not a decimal number such as -1.5e-3 (digits, a point, an "
+                "exponent: no underscores)" if _python_float(odd) else ""))
+        values = [float(word) for word in words]
         if len(values) != count:
             raise self.error(where, f"{shown}: expected {count} number{'s' if count > 1 else ''}"
                                     f", got {len(values)}")
-        if not all(math.isfinite(v) for v in values):
+        if not all(math.isfinite(v) for v in values):        # e.g. 1e999
             raise self.error(where, f"{shown}: numbers must be finite")
         if any(abs(v) > LARGEST for v in values):
             raise self.error(where, f"{shown}: out of range (at most {LARGEST:g} in size, "
@@ -556,19 +591,29 @@ class _Importer:
             parts = [(joint.child, None)] + folded[joint.child]
             bodies.append(self.body(joint, owner, pose, parts, links, body_name, q, masters))
             comments.append(self.body_comment(joint, parts, pose, body_name))
+        tau = {j.name: names.actuator(q[j.name]) for j in coordinates}
         data = {
             "name": robot_name,
             "description": self.description(root, coordinates, moving, masters),
             "gravity": [0, 0, -GRAVITY],
             "coordinates": {q[j.name]: {"initial": self.initial(j)} for j in coordinates},
             "bodies": bodies,
-            "actuators": {names.actuator(q[j.name]): {"joint": body_name[j.child]}
-                          for j in coordinates},
+            "actuators": {tau[j.name]: {"joint": body_name[j.child]} for j in coordinates},
         }
+        places = {"": f"<robot name={root.get('name')!r}>",
+                  "name": f"the file name {Path(self.source).name!r}",
+                  **{f"bodies[{i}]": f"joint {j.name!r} (child link {j.child!r})"
+                     for i, j in enumerate(moving)},
+                  **{f"coordinates.{q[j.name]}": f"joint {j.name!r}" for j in coordinates},
+                  **{f"actuators.{tau[j.name]}": f"joint {j.name!r}" for j in coordinates}}
         self.collect_notes()
         header = self.header(base, folded[GROUND], coordinates, masters, q, joints)
         footer = self.trajectory_hint(coordinates[0], q[coordinates[0].name])
-        return Imported(data, render(data, header, comments) + footer, self.warnings)
+        text = render(data, header, comments) + footer
+        _PLACES[text] = places
+        while len(_PLACES) > 8:
+            del _PLACES[next(iter(_PLACES))]
+        return Imported(data, text, self.warnings)
 
     def trajectory_hint(self, joint: _Joint, name: str) -> str:
         """A commented-out motion for ``anadyn inverse`` (a URDF has none): the first
@@ -578,7 +623,7 @@ class _Importer:
         if "upper" in joint.limit:
             target = min(target, joint.limit["upper"])
         return (f"# a motion for `anadyn inverse` (a URDF has none); uncomment and edit:\n"
-                f"# trajectory: {{kind: quintic, duration: 2, to: {{{name}: "
+                f"# trajectory: {{kind: quintic, duration: 2, to: {{{_key(name)}: "
                 f"{_format(self.value(target))}}}}}\n")
 
     def initial(self, joint: _Joint) -> float:
@@ -775,6 +820,15 @@ class _Names:
         return result
 
 
+def _python_float(word: str) -> bool:
+    """Whether Python's float() reads ``word`` (which DECIMAL refuses, e.g. 1_0)."""
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True
+
+
 def _listed(names, most: int = 5) -> str:
     """'a', 'b', 'c', ... (at most ``most`` names shown)."""
     names = list(names)
@@ -809,8 +863,8 @@ def _angle(x: float):
 
 # -- YAML text ---------------------------------------------------------------------
 def _format(x) -> str:
-    """A scalar as YAML that reads back as the same value (floats keep a '.' so
-    that YAML 1.1 resolves 1.0e-05 to a float, not a string)."""
+    """A number as text that Python and YAML read back as the same value (floats
+    keep a '.' before an exponent, as yaml's own dumper writes them); text as is."""
     if isinstance(x, (np.floating, np.integer)):
         x = x.item()
     if isinstance(x, bool) or x is None:
@@ -825,49 +879,84 @@ def _format(x) -> str:
             mantissa, exponent = text.split("e")
             text = f"{mantissa}.0e{exponent}"
         return text
-    text = str(x)
-    plain = re.fullmatch(r"[A-Za-z0-9_.*/+\- ]+", text) and not text.startswith(("- ", " ")) \
-        and not text.endswith(" ")
-    return text if plain else _quote(text)
+    return str(x)
 
 
-def _quote(text: str) -> str:
-    import json
+#: text written plain when the dumper finds it unambiguous (names, expressions)
+PLAIN_TEXT = re.compile(r"[A-Za-z0-9_.*/+-](?:[A-Za-z0-9_.*/+ -]*[A-Za-z0-9_.*/+-])?\Z")
 
-    return json.dumps(text, ensure_ascii=False)
+
+class _Quoted(Dumper):
+    """The loader's dumper with every string but names and expressions
+    (PLAIN_TEXT) double-quoted: escapes, one line."""
+
+
+_Quoted.add_representer(str, lambda dumper, text: dumper.represent_scalar(
+    "tag:yaml.org,2002:str", text, style=None if PLAIN_TEXT.match(text) else '"'))
+
+
+def _scalar(value, dumper: type = _Quoted) -> str:
+    """One scalar as YAML: a number by ``_format`` (its repr), text by ``_text``."""
+    if isinstance(value, str):
+        return _text(value, dumper)
+    return _format(value)
+
+
+@functools.lru_cache(maxsize=4096)
+def _text(value: str, dumper: type) -> str:
+    """Text as YAML written by ``dumper``: by default double-quoted but for names
+    and expressions, which are plain where the loader reads them back as the
+    same text (``yes`` or ``010`` are quoted)."""
+    text = yaml.dump([value], Dumper=dumper, default_flow_style=True, width=math.inf,
+                     allow_unicode=True)
+    return text.strip()[1:-1]
+
+
+def _key(name: str) -> str:
+    """A mapping key: plain when the loader reads it back as this text, else quoted."""
+    return _scalar(name, Dumper)
 
 
 def _flow(value) -> str:
+    """A value in flow style: keys by ``_key``, scalars by ``_scalar``."""
     if isinstance(value, dict):
-        return "{" + ", ".join(f"{k}: {_flow(v)}" for k, v in value.items()) + "}"
+        return "{" + ", ".join(f"{_key(k)}: {_flow(v)}" for k, v in value.items()) + "}"
     if isinstance(value, list):
         return "[" + ", ".join(_flow(v) for v in value) + "]"
-    return _format(value)
+    return _scalar(value)
+
+
+def _comment(line: str, indent: str = "") -> str:
+    """A comment line; line breaks and controls in ``line`` escaped (``printable``)."""
+    return f"{indent}# {printable(line)}".rstrip()
 
 
 def render(data: dict, header: list[str], body_comments: list[list[str]]) -> str:
     """The YAML text of ``data`` (block style, leaves in flow style), with
-    ``header`` comment lines on top and each body's comment lines above it."""
-    out = [f"# {line}".rstrip() for line in header]
+    ``header`` comment lines on top and each body's comment lines above it.
+
+    Every string is written by yaml's own dumper (``_text``: free text
+    double-quoted, with escapes), every key by the loader's (quoted when it
+    would not read back as text), every number by its repr and every comment
+    line made ``printable``, so no name or file name from the URDF can change
+    the structure: the text loads back to ``data`` (tests/test_import_trust.py)."""
+    out = [_comment(line) for line in header]
     for key, value in data.items():
         if key == "bodies":
             out.append("bodies:")
             for body, comment in zip(value, body_comments):
-                out.extend(f"  # {line}" for line in comment)
-                first = True
+                out.extend(_comment(line, "  ") for line in comment)
+                lead = "  - "
                 for k, v in body.items():
-                    lead = "  - " if first else "    "
-                    first = False
                     if k == "joint":
                         out.append(f"{lead}joint:")
-                        out.extend(f"      {jk}: {_flow(jv)}" for jk, jv in v.items())
+                        out.extend(f"      {_key(jk)}: {_flow(jv)}" for jk, jv in v.items())
                     else:
-                        out.append(f"{lead}{k}: {_flow(v)}")
+                        out.append(f"{lead}{_key(k)}: {_flow(v)}")
+                    lead = "    "
         elif isinstance(value, dict):
-            out.append(f"{key}:")
-            out.extend(f"  {k}: {_flow(v)}" for k, v in value.items())
-        elif key == "description":
-            out.append(f"{key}: {_quote(value)}")
+            out.append(f"{_key(key)}:")
+            out.extend(f"  {_key(k)}: {_flow(v)}" for k, v in value.items())
         else:
-            out.append(f"{key}: {_flow(value)}")
+            out.append(f"{_key(key)}: {_flow(value)}")
     return "\n".join(out) + "\n"

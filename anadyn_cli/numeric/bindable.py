@@ -44,7 +44,7 @@ from typing import Callable, Mapping
 import sympy as sp
 
 from ..errors import ModelError
-from ..model import expressions, yamlsource
+from ..model import expressions, yamlschema
 from ..model.robot import Controller, Coordinate, Robot, Trajectory
 from .codegen import Function, module_source
 from .bound import BoundModel  # noqa: F401  (re-exported: the model of a bindable module)
@@ -129,7 +129,7 @@ def fold(robot: Robot, text: str, names: tuple[str, ...]) -> Folding:
     free = {n: free_symbol(n) for n in names}
     free_set = set(free.values())
     params = {n: free[n] for n in names if known[n] == "parameter"}
-    data, _ = yamlsource.load(text, robot.source)
+    data, _ = yamlschema.load(text, robot.source)
     symbols = {name: sp.Symbol(name, real=True) for name in robot.parameters}
     copy = PartlyFolded(**{f.name: getattr(robot, f.name) for f in fields(Robot)},
                         free=MappingProxyType(params))

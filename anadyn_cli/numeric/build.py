@@ -6,6 +6,20 @@ are imported only on a cache miss.  On a hit, a path is read and hashed, and
 the stored code and robot info are loaded: no YAML validation, no SymPy.
 The cache is opt-in (``use_cache``): the command line turns it on, library
 calls leave it off unless asked.
+
+Two words say what computes the numbers (every command's JSON records both,
+``computation``):
+
+- the *evaluator*: "recursive" runs the Newton-Euler recursions over the
+  kinematic tree (generated O(n) code, native C when cached; open trees
+  only; no symbolic equations are derived), "closed-form" compiles the
+  closed forms M, F, B of a formulation;
+- the *formulation* of those closed forms: "kane" or "lagrange" (None when
+  the evaluator is recursive).
+
+Unless asked, an open tree runs recursive when no formulation is named;
+naming a formulation asks for its closed forms; a closed chain runs the
+closed forms of Kane's equations.
 """
 from __future__ import annotations
 
@@ -14,45 +28,85 @@ import time
 from pathlib import Path
 
 from . import cache, constrained
+from ..errors import SettingError
 from ..model.info import RobotInfo
 from .model import NumericModel
 
-
-#: formulations served by the recursive path (numeric.recursive, numeric.native)
-#: unless the caller hands over closed-form equations (``eom``)
-RECURSIVE = ("kane", "recursive")
-
-
-def _cache_key(formulation: str, eom) -> str:
-    """What the cache entry is filed under: "recursive" for the recursive path."""
-    return "recursive" if formulation in RECURSIVE and eom is None else formulation
+#: what runs the numbers (see the module docstring)
+EVALUATORS = ("recursive", "closed-form")
+#: formulations of the closed forms (``symbolic.formulations.FORMULATIONS``)
+FORMULATIONS = ("kane", "lagrange")
 
 
-def numeric_model(robot, formulation: str = "kane", use_cache: bool = False,
-                  timings: dict | None = None, eom=None, jacobian: bool = True) -> NumericModel:
-    """The numeric model of ``robot`` (a path or a validated ``Robot``) by
-    ``formulation``; ``eom``: the robot's equations, when the caller has them.
+def computation(model: NumericModel) -> dict:
+    """What computed ``model``'s numbers, as every command's JSON records it:
+    ``{"formulation": "kane" | "lagrange" | None, "evaluator": "recursive" | "closed-form"}``."""
+    return {"formulation": model.formulation, "evaluator": model.evaluator}
 
-    "kane" (the default) and "recursive" without ``eom`` build the recursive
-    path: Kane's equations evaluated by Newton-Euler recursions, O(n) code,
-    native C when cached (``numeric.native``); closed chains and "lagrange"
-    (or a given ``eom``) build the closed forms, with the analytic Jacobian
-    unless ``jacobian`` is off (then never cached: every cached model has it)."""
+
+def describe(formulation: str | None, evaluator: str) -> str:
+    """What ran, in the words of plot titles and terminal lines: "recursive
+    Newton-Euler" or "kane closed forms"."""
+    return "recursive Newton-Euler" if evaluator == "recursive" else f"{formulation} closed forms"
+
+
+def _request(formulation: str | None, evaluator: str | None) -> tuple[str | None, str | None]:
+    """(formulation, evaluator) asked for, checked; formulation None (evaluator None or
+    "recursive"): the robot decides (``numeric_model``)."""
+    if evaluator is not None and evaluator not in EVALUATORS:
+        raise SettingError("evaluator", f"must be recursive or closed-form, got {evaluator!r}")
+    if formulation is not None and formulation not in FORMULATIONS:
+        raise SettingError("formulation", f"must be kane or lagrange, got {formulation!r}")
+    if evaluator == "recursive" and formulation is not None:
+        raise SettingError("evaluator", f"recursive derives no symbolic equations; drop the "
+                                        f"formulation ({formulation}) or use closed-form")
+    if evaluator == "closed-form" and formulation is None:
+        return "kane", evaluator
+    return formulation, ("closed-form" if formulation is not None else evaluator)
+
+
+def _closed_chain(name: str) -> SettingError:
+    return SettingError("evaluator", f"recursive needs an open tree; {name} has closed loops "
+                                     "(constraints): use closed-form, the default there")
+
+
+def _cache_key(formulation: str | None) -> str:
+    """What the cache entry is filed under: the formulation of the closed forms, or
+    "recursive" for the robot's own choice (a closed chain files Kane's closed forms there)."""
+    return "recursive" if formulation is None else formulation
+
+
+def numeric_model(robot, formulation: str | None = None, use_cache: bool = False,
+                  timings: dict | None = None, eom=None, jacobian: bool = True,
+                  evaluator: str | None = None) -> NumericModel:
+    """The numeric model of ``robot`` (a path or a validated ``Robot``).
+
+    ``evaluator`` ("recursive", "closed-form" or None) and ``formulation``
+    ("kane", "lagrange" or None) choose what computes the numbers (module
+    docstring); the model's ``evaluator`` and ``formulation`` say what does.
+    ``eom``: the robot's equations, when the caller has them (their closed
+    forms are compiled).  The closed forms carry the analytic Jacobian unless
+    ``jacobian`` is off (then never cached: every cached model has it).
+    SettingError for a wrong choice, or "recursive" on a closed chain."""
     use_cache = use_cache and jacobian
     timings = {} if timings is None else timings
+    formulation, evaluator = ((eom.formulation, "closed-form") if eom is not None
+                              else _request(formulation, evaluator))
     if isinstance(robot, (str, Path)):
-        return _from_path(robot, formulation, use_cache, timings)
-    key = _cache_key(formulation, eom)
+        return _from_path(robot, formulation, evaluator, use_cache, timings)
+    key = _cache_key(formulation)
     if use_cache:
         hit = _cached(robot.digest, key, robot.source)
         if hit is not None:
             timings["cache"] = "hit"
-            return hit
+            return _checked(hit, evaluator)
         timings["cache"] = "miss"
-    if key == "recursive" and robot.constraints is None:
-        return _recursive_model(robot, use_cache, timings)
-    if formulation == "recursive":
-        formulation = "kane"                        # closed chains: the closed forms
+    if formulation is None:
+        if robot.constraints is None:
+            return _recursive_model(robot, use_cache, timings)
+        if evaluator == "recursive":
+            raise _closed_chain(robot.name)
+        formulation = "kane"                        # closed chains: Kane's closed forms
     from . import closed_form, trajectory
     from ..symbolic.formulations import derive
 
@@ -72,16 +126,47 @@ def numeric_model(robot, formulation: str = "kane", use_cache: bool = False,
     return model
 
 
+def _checked(model: NumericModel, evaluator: str | None) -> NumericModel:
+    """A cached ``model``, unless "recursive" was asked for and it holds closed forms."""
+    if evaluator == "recursive" and model.evaluator != "recursive":
+        raise _closed_chain(model.name)
+    return model
+
+
 def _recursive_model(robot, use_cache: bool, timings: dict) -> NumericModel:
     """Recursive path: generated Python now, the C library when cached (or built
-    in the background for the next run; see ``native.mode``).  On a cold run
-    the forward dynamics are traced first and compiled alone (``QuickBuild``)
-    while the rest is generated: the run switches to that C when it is built."""
-    from . import native, recursive, trajectory
+    in the background for the next run; see ``native.mode``).  A cold run
+    (``use_cache``, a miss) is served by the generic kernel when it can be
+    (``generic.first_run``: the robot's own code is generated, stored and
+    compiled in a forked process); otherwise the forward dynamics are traced
+    first and compiled alone (``QuickBuild``) while the rest is generated: the
+    run switches to that C when it is built."""
+    from . import generic, recursive
 
     start = time.perf_counter()
-    forward = recursive.forward(recursive.plan(robot))
-    quick = native.QuickBuild.start(native.c_source(forward)) if use_cache else None
+    pl = recursive.plan(robot)
+    if use_cache:
+        model = generic.first_run(
+            robot, pl, RobotInfo.from_robot(robot),
+            full=lambda: _generated_model(robot, pl, {}, quick=False, how="off", store=False),
+            background=lambda: _generated_model(robot, pl, {}, quick=False, how="wait",
+                                                store=True))
+        if model is not None:
+            timings["derive"] = time.perf_counter() - start     # the plan and tables
+            return model
+    return _generated_model(robot, pl, timings, quick=use_cache,
+                            how=None if use_cache else "off", store=use_cache, start=start)
+
+
+def _generated_model(robot, pl, timings: dict, quick: bool, how: str | None, store: bool,
+                     start: float | None = None) -> NumericModel:
+    """The robot's own code (generated Python, C by ``how``: ``native.load``) from its
+    plan ``pl``; ``quick``: with a ``QuickBuild``; ``store``: into the cache."""
+    from . import native, recursive, trajectory
+
+    start = time.perf_counter() if start is None else start
+    forward = recursive.forward(pl)
+    quick = native.QuickBuild.start(native.c_source(forward)) if quick else None
     generated = recursive.complete(forward)
     code = recursive.module_source(generated) + trajectory.motion_source(robot)
     if "def powers(" not in code:     # check's loads' power, dissipation, springs' energy
@@ -91,45 +176,45 @@ def _recursive_model(robot, use_cache: bool, timings: dict) -> NumericModel:
     timings["derive"] = time.perf_counter() - start       # the recursive equations
     info = RobotInfo.from_robot(robot)
     start = time.perf_counter()
-    model = native.numeric_model(info, code, c_text, "recursive", timings,
-                                 how=None if use_cache else "off", quick=quick)
+    model = native.numeric_model(info, code, c_text, None, timings, how=how, quick=quick)
     timings["compile"] = time.perf_counter() - start
-    if use_cache:
+    if store:
         cache.store(robot.digest, "recursive", {"code": code, "c": c_text,
                                                 "robot": info.to_dict()})
     return model
 
 
-def _from_path(path: str | Path, formulation: str, use_cache: bool,
-               timings: dict) -> NumericModel:
+def _from_path(path: str | Path, formulation: str | None, evaluator: str | None,
+               use_cache: bool, timings: dict) -> NumericModel:
     from ..model.yamlsource import read_text
 
     text, source = read_text(path)
     if use_cache:
         digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
-        hit = _cached(digest, _cache_key(formulation, None), source)
+        hit = _cached(digest, _cache_key(formulation), source)
         if hit is not None:
             timings["cache"] = "hit"
-            return hit
+            return _checked(hit, evaluator)
     from ..model import robot_from_text
 
     start = time.perf_counter()
     robot = robot_from_text(text, source)
     timings["load"] = time.perf_counter() - start
-    return numeric_model(robot, formulation, use_cache, timings)
+    return numeric_model(robot, formulation, use_cache, timings, evaluator=evaluator)
 
 
-def _cached(digest: str, formulation: str, source: str) -> NumericModel | None:
+def _cached(digest: str, key: str, source: str) -> NumericModel | None:
     """The cache entry's model; None on a miss or a damaged entry."""
-    entry = cache.load(digest, formulation)
+    entry = cache.load(digest, key)
     if entry is None:
         return None
     try:
         if "c" in entry:                            # the recursive path
             from . import native
             return native.numeric_model(RobotInfo.from_dict(entry["robot"], source),
-                                        entry["code"], entry["c"], "recursive")
+                                        entry["code"], entry["c"], None)
         return constrained.model_type(entry["code"])(
-            RobotInfo.from_dict(entry["robot"], source), entry["code"], formulation)
+            RobotInfo.from_dict(entry["robot"], source), entry["code"],
+            "kane" if key == "recursive" else key)
     except Exception:           # noqa: BLE001  anything wrong with a stored entry is a miss
         return None

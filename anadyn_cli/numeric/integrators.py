@@ -3,7 +3,15 @@
 A service hands over a ``Problem``, plain callables for x' = f(t, x) and,
 optionally, its Jacobian df/dx.  This layer owns what every run needs:
 counting RHS and Jacobian calls (SciPy's ``nfev`` leaves out finite-difference
-Jacobians), call and time budgets, and failure capture.  The result is a
+Jacobians), call and time budgets, a stall limit, and failure capture.
+
+The stall limit holds for every run, budget or not: after ``STALL_CALLS`` RHS
+calls in a row that take t less than ``STALL_FRACTION`` of the horizon
+further, the run fails there as where the equations cannot be evaluated (the
+rows before it kept, the message naming the time and state).  At that pace
+the run would need more than STALL_CALLS / STALL_FRACTION = 2e13 calls: the
+step size has collapsed, as at a singularity of the equations or of a law
+(``1/(t - 0.5)``), where LSODA would otherwise step on without end.  The result is a
 ``Solution`` on the requested grid; failure comes back as data (``success``
 False, ``message`` naming the time and state, the rows before it), never as
 an exception.
@@ -31,6 +39,8 @@ from ..model.info import METHODS
 IVP_METHODS = METHODS[2:]             # scipy.integrate.solve_ivp's, after auto and odeint
 IMPLICIT = ("Radau", "BDF", "LSODA")
 STIFF_RATIO = 1000.0     # |lambda|max * horizon above this: explicit methods are step-limited
+STALL_CALLS = 20_000     # RHS calls in a row ...
+STALL_FRACTION = 1e-9    # ... taking t less than this fraction of the horizon further: stalled
 #: what a right-hand side may raise at a state where the equations cannot be evaluated
 EVALUATION_ERRORS = (np.linalg.LinAlgError, OverflowError, ValueError, ZeroDivisionError)
 
@@ -77,14 +87,19 @@ class _Counted:
     """The problem's callables with counting, budgets and the first failure recorded.
 
     A state where the equations cannot be evaluated, or give non-finite
-    values, is recorded and answered with NaNs, which no integrator steps over.
+    values, is recorded and answered with NaNs, which no integrator steps over;
+    so is every call once the run has stalled (the stall limit).
     """
 
-    def __init__(self, problem: Problem, budget: int | None, seconds: float | None):
+    def __init__(self, problem: Problem, budget: int | None, seconds: float | None,
+                 horizon: float = math.inf):
         self.problem, self.budget = problem, budget
         self.deadline = None if seconds is None else time.perf_counter() + seconds
         self.rhs_calls = self.jacobian_calls = 0
         self.t_reached = -math.inf
+        self.stall_span = STALL_FRACTION * horizon      # progress that resets the stall count
+        self.progress = (-math.inf, 0)                  # (t, calls) at the last such progress
+        self.stalled = False
         self.failure: tuple[float, np.ndarray, str] | None = None
 
     def _fail(self, t: float, x: np.ndarray, why: str) -> None:
@@ -99,6 +114,14 @@ class _Counted:
             raise OverBudget(calls, self.t_reached, seconds=True)
         self.rhs_calls = calls + 1
         self.t_reached = max(self.t_reached, float(t))
+        if self.t_reached > self.progress[0] + self.stall_span:
+            self.progress = (self.t_reached, calls)
+        elif self.stalled or calls - self.progress[1] >= STALL_CALLS:
+            self.stalled = True
+            self._fail(t, x, f"the step size collapsed (a singularity of the equations or of "
+                             f"a law?): {STALL_CALLS} RHS calls took t less than "
+                             f"{STALL_FRACTION:g} of the horizon further")
+            return np.full(len(x), np.nan)
         try:
             out = self.problem.rhs(t, x)
         except EVALUATION_ERRORS as err:
@@ -192,7 +215,7 @@ def integrate(problem: Problem, x0: np.ndarray, grid: np.ndarray, method: str = 
         reason = (f"{analysis.describe()}; odeint (LSODA) steps in compiled code and "
                   f"switches between Adams and BDF itself")
         method = "odeint"
-    counted = _Counted(problem, budget, seconds)
+    counted = _Counted(problem, budget, seconds, float(grid[-1] - grid[0]))
     if method == "odeint":      # imported before the clock starts, not inside a solve
         from . import odepack
         odepack.extension()
@@ -226,8 +249,8 @@ def _odeint(counted: _Counted, x0, grid, rtol, atol, stop_at_end: bool) -> Solut
                      mxstep=10**6, tcrit=[grid[-1]] if stop_at_end else None, tfirst=True)
     ok = info["message"].startswith("Integration successful")
     steps = int(info["nst"][-1]) if len(info["nst"]) else 0
-    if not ok:      # rows past the last time reached are not valid
-        reached = np.flatnonzero(grid <= info["tcur"].max())
+    if not ok:      # rows past the last time reached are not valid (nor is tcur there)
+        reached = np.flatnonzero(grid <= min(info["tcur"].max(), counted.t_reached))
         x = x[: reached[-1] + 1] if len(reached) else x[:1]
     return Solution(grid[: len(x)], x, "odeint", ok, info["message"], steps=steps)
 

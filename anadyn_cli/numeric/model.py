@@ -34,18 +34,24 @@ class PrescribedMotion:
 
 def run_generated(source: str) -> dict:
     """The namespace of anadyn's own generated module ``source`` (never user text:
-    expressions reach generated code only through the whitelist parser)."""
+    expressions reach generated code only through the whitelist parser).  Source
+    from the cache gets here only from files ``cache.read_record`` trusts: the
+    user's own, in folders no one else can write, matching their SHA-256."""
     namespace: dict[str, object] = {}
     exec(compile(source, "<anadyn generated>", "exec"), namespace)   # noqa: S102
     return namespace
 
 
 class NumericModel:
-    """Compiled functions of one robot's equations by one formulation."""
+    """Compiled functions of one robot's equations: ``evaluator`` "recursive" (the
+    Newton-Euler recursions' code, with its RNEA) or "closed-form" (the closed forms of
+    ``formulation``, "kane" or "lagrange"; None on the recursive path)."""
 
-    def __init__(self, info: RobotInfo, source: str, formulation: str = "kane"):
+    def __init__(self, info: RobotInfo, source: str, formulation: str | None = "kane"):
         namespace = run_generated(source)
-        self.info, self.source, self.formulation = info, source, formulation
+        self.info, self.source = info, source
+        self.evaluator = "recursive" if "inverse_dynamics" in namespace else "closed-form"
+        self.formulation = None if self.evaluator == "recursive" else formulation
         self.coordinates: tuple[str, ...] = namespace["COORDINATES"]
         self.effort_names: tuple[str, ...] = namespace["EFFORTS"]
         self.n = len(self.coordinates)

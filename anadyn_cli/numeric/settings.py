@@ -2,6 +2,9 @@
 
 Messages name the settings as the library knows them (``output_step``); the
 command line names its flags instead (``errors.SettingError``).
+
+Each given setting is checked against its range in ``errors.ALLOWED``, the
+table the command line checks its options by when it is read.
 """
 from __future__ import annotations
 
@@ -10,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import ModelError, positive
+from ..errors import ModelError, check
 from ..model.info import RobotInfo, Simulation
 from .integrators import METHODS
 
@@ -24,7 +27,7 @@ def resolve(robot: RobotInfo, **given) -> Simulation:
     chosen = {k: v for k, v in given.items() if v is not None}
     for key in ("t_end", "output_step", "rtol", "atol"):   # the file's are checked on load
         if key in chosen:
-            positive(key, chosen[key])
+            chosen[key] = check(key, chosen[key])
     settings = replace(DEFAULTS, **{k: v for k, v in robot.simulation.__dict__.items()
                                     if v is not None})
     settings = replace(settings, **chosen)

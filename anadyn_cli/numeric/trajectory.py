@@ -7,8 +7,11 @@ q0: a coordinate left out holds still):
     cycloidal   q0 + (qf - q0)/T * (t - T/(2 pi) sin(2 pi t/T))
     quintic     q0 + (qf - q0) * (10 s^3 - 15 s^4 + 6 s^5),   s = t/T
     expression  the file's expression of t (left out: the initial value)
+    waypoints   rest-to-rest segments (cycloidal or quintic) from pose to pose,
+                one duration each (``model.waypoints``)
 
-Both rest-to-rest kinds start and end with zero rate and zero acceleration.
+The rest-to-rest kinds start and end (waypoints: reach every pose) with zero
+rate and zero acceleration.
 The rates and accelerations are SymPy's exact derivatives of these
 expressions (never finite differences), compiled into one vectorized NumPy
 function ``motion(t) -> q, dq, ddq`` (arrays of shape t.shape + (n,)).
@@ -21,6 +24,7 @@ import sympy as sp
 
 from .codegen import Function, module_source
 from ..errors import ModelError
+from ..model import waypoints
 from ..model.robot import Robot
 
 T = sp.Symbol("t", real=True)
@@ -54,23 +58,21 @@ def expressions(robot: Robot) -> list[sp.Expr]:
         if trajectory.kind == "expression":
             result.append(trajectory.expressions.get(c.name, c.initial))
             continue
+        if trajectory.kind == "waypoints":       # the first pose's gaps: initial values
+            result.append(trajectory.expressions[c.name].xreplace({c.symbol: c.initial}))
+            continue
         start = trajectory.start.get(c.name, c.initial)
         end = trajectory.end.get(c.name, start)
-        if trajectory.kind == "cycloidal":
-            shape = (T - duration / (2 * sp.pi) * sp.sin(2 * sp.pi * T / duration)) / duration
-        elif trajectory.kind == "quintic":
-            s = T / duration
-            shape = 10 * s**3 - 15 * s**4 + 6 * s**5
-        else:                                    # the loader admits only the kinds above
+        if trajectory.kind not in waypoints.SHAPES:    # the loader admits only these kinds
             raise ModelError(f"unknown trajectory kind {trajectory.kind!r}",
                              source=robot.source, path="trajectory.kind")
-        result.append(start + (end - start) * shape)
+        result.append(start + (end - start) * waypoints.shape(trajectory.kind, T / duration))
     return result
 
 
 def missing(robot: Robot) -> ModelError:
     return ModelError("no trajectory section: inverse dynamics needs a prescribed motion "
-                      "(trajectory: kind cycloidal, quintic or expression)",
+                      "(trajectory: kind cycloidal, quintic, expression or waypoints)",
                       source=robot.source)
 
 

@@ -16,9 +16,11 @@ are derived from).  What is drawn, for each body:
 
 Views: a 3-D view and three projections on the world planes, oriented so
 that "up" is against gravity (z when there is none): front (the first other
-axis across, up), side (the second other axis across, up) and top.  Every
-view keeps true proportions (equal scale on its two axes), fits the robot
-with a margin, and shows gravity as an arrow.
+axis across, up), side (the second other axis across, up) and top.  A planar
+robot (no drawn point ever leaves one world plane) gets that plane alone.
+Every view keeps true proportions (equal scale on its two axes), fits the
+robot with a margin, and shows gravity as an arrow.  An animation can draw
+the path of each end of the chain (its tips) as a trace.
 """
 from __future__ import annotations
 
@@ -26,12 +28,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model.joints import JOINT_TYPES
 from ..numeric.frames import Poses, Skeleton
 
 AXES = "xyz"
-LINK, SLEEVE, AXIS, COM = "#1f4e79", "#7fa7d1", "#8e44ad", "black"
+LINK, SLEEVE, AXIS, COM, TRACE = "#1f4e79", "#7fa7d1", "#8e44ad", "black", "#e67e22"
 FRAME_COLORS = ("#d62728", "#2ca02c", "#1f77b4")
-JOINT_MARKERS = {"revolute": "o", "prismatic": "s", "fixed": "X"}
+#: a joint's marker: a cross where it is welded, a square where it slides, a disc where it turns
+JOINT_MARKERS = {word: ("X" if not kind.moving else "s" if kind.linear else "o")
+                 for word, kind in JOINT_TYPES.items()}
 
 
 @dataclass(frozen=True)
@@ -46,11 +51,18 @@ def up_axis(gravity) -> int:
     return int(np.argmax(np.abs(g))) if np.abs(g).max() > 0 else 2
 
 
-def views(gravity) -> list[View]:
-    """3-D, front, side and top, with "up" against gravity."""
+def views(gravity, normal: int | None = None) -> list[View]:
+    """3-D, front, side and top, with "up" against gravity; for a robot that moves in
+    the plane across world axis ``normal``, that plane alone (up against gravity
+    when gravity lies in it)."""
     up = up_axis(gravity)
-    h1, h2 = (k for k in range(3) if k != up)        # x before y before z
     name = {k: AXES[k] for k in range(3)}
+    if normal is not None:
+        h, v = (k for k in range(3) if k != normal)
+        if h == up:
+            h, v = v, h
+        return [View(f"{name[h]}-{name[v]} plane (the robot moves in it)", (h, v))]
+    h1, h2 = (k for k in range(3) if k != up)        # x before y before z
     return [View("3-D", None),
             View(f"front ({name[h1]}-{name[up]} plane)", (h1, up)),
             View(f"side ({name[h2]}-{name[up]} plane)", (h2, up)),
@@ -118,9 +130,10 @@ def _joined(pieces: list[np.ndarray]) -> np.ndarray:
 class RobotArtist:
     """The robot in one view of one axes; ``update`` moves it to another pose."""
 
-    def __init__(self, ax, view: View, skeleton: Skeleton, frame: Frame, labels: bool = True):
+    def __init__(self, ax, view: View, skeleton: Skeleton, frame: Frame, labels: bool = True,
+                 font: float = 8):
         self.ax, self.view, self.skeleton, self.frame = ax, view, skeleton, frame
-        self.labels = labels
+        self.labels, self.font = labels, font
         self.three_d = view.plane is None
         plot = ax.plot
         nan = [np.nan]
@@ -151,12 +164,14 @@ class RobotArtist:
                          markersize=10, color="0.45", zorder=1, label="ground")[0]
         self.mounts = plot(*([nan] * self.dims), color="0.55", linewidth=2.4, zorder=1,
                            solid_capstyle="round")[0]      # ground to the first joints
-        moving = [i for i, kind in enumerate(skeleton.joint_types) if kind != "fixed"]
+        moving = [i for i, kind in enumerate(skeleton.joint_types) if JOINT_TYPES[kind].moving]
         self.names = []
         self.joint_names = []
         if labels:
-            self.names = [self._text(name, fontsize=7, color="black") for name in skeleton.bodies]
-            self.joint_names = [(i, self._text(skeleton.displacements[i], fontsize=7, color=AXIS,
+            self.names = [self._text(name, fontsize=font - 1, color="black")
+                          for name in skeleton.bodies]
+            self.joint_names = [(i, self._text(skeleton.displacements[i], fontsize=font - 1,
+                                               color=AXIS,
                                                style="italic")) for i in moving]
         if not self.three_d:
             self._static_2d()
@@ -200,18 +215,19 @@ class RobotArtist:
         ax.set_xlim(f.center[h] - half, f.center[h] + half)     # square, around this
         ax.set_ylim(f.center[v] - half, f.center[v] + half)     # view's own content
         ax.set_aspect("equal", adjustable="box")
-        ax.set_xlabel(f"{AXES[h]} (m)", fontsize=8)
-        ax.set_ylabel(f"{AXES[v]} (m)", fontsize=8)
-        ax.tick_params(labelsize=7)
+        ax.set_xlabel(f"{AXES[h]} (m)", fontsize=self.font)
+        ax.set_ylabel(f"{AXES[v]} (m)", fontsize=self.font)
+        ax.tick_params(labelsize=self.font - 1)
         ax.grid(True, alpha=0.25, linewidth=0.5)
-        ax.set_title(self.view.title, fontsize=9)
+        ax.set_title(self.view.title, fontsize=self.font + 1)
         g = np.asarray(self.skeleton.gravity, dtype=float)[[h, v]]
         if np.linalg.norm(g) > 1e-9 * max(1.0, np.linalg.norm(self.skeleton.gravity)):
             d = 0.09 * g / np.linalg.norm(g)
             ax.annotate("", xy=(0.9 + d[0] / 2, 0.88 + d[1] / 2),
                         xytext=(0.9 - d[0] / 2, 0.88 - d[1] / 2), xycoords="axes fraction",
                         arrowprops={"arrowstyle": "-|>", "color": "0.3", "linewidth": 1.2})
-            ax.annotate("g", (0.93, 0.93), xycoords="axes fraction", fontsize=8, color="0.3")
+            ax.annotate("g", (0.93, 0.93), xycoords="axes fraction", fontsize=self.font,
+                        color="0.3")
 
     def _static_3d(self) -> None:
         ax, f = self.ax, self.frame
@@ -219,10 +235,10 @@ class RobotArtist:
             setter(f.center[k] - f.half, f.center[k] + f.half)
         ax.set_box_aspect((1, 1, 1))
         for k, setter in enumerate((ax.set_xlabel, ax.set_ylabel, ax.set_zlabel)):
-            setter(f"{AXES[k]} (m)", fontsize=8, labelpad=-2)
-        ax.tick_params(labelsize=6, pad=0)
+            setter(f"{AXES[k]} (m)", fontsize=self.font, labelpad=-2)
+        ax.tick_params(labelsize=self.font - 1, pad=0)
         ax.view_init(elev=22, azim=-58, vertical_axis=AXES[up_axis(self.skeleton.gravity)])
-        ax.set_title(self.view.title, fontsize=9)
+        ax.set_title(self.view.title, fontsize=self.font + 1)
 
     def update(self, pose: Poses) -> None:
         """Draw ``pose`` (one configuration)."""
@@ -231,15 +247,15 @@ class RobotArtist:
         self._set(self.links, _joined([link_path(sk, pose, i)[:-1] for i in range(b)]))
         self._set(self.mounts, _joined([np.array([np.zeros(3), pose.joint[i]])
                                         for i in range(b) if sk.parents[i] < 0]))
-        prismatic = [i for i in range(b) if sk.joint_types[i] == "prismatic"]
+        sliding = [i for i in range(b) if JOINT_TYPES[sk.joint_types[i]].linear]
         self._set(self.sleeves, _joined([np.array([pose.joint[i], pose.origin[i]])
-                                         for i in prismatic]))
+                                         for i in sliding]))
         for k, line in enumerate(self.triads):
             self._set(line, _joined([np.array([pose.origin[i],
                                                pose.origin[i] + f.triad * pose.R[i][:, k]])
                                      for i in range(b)]
                                     + [np.array([np.zeros(3), f.triad * np.eye(3)[k]])]))
-        moving = [i for i in range(b) if sk.joint_types[i] != "fixed"]
+        moving = [i for i in range(b) if JOINT_TYPES[sk.joint_types[i]].moving]
         in_plane, out = [], []
         for i in moving:
             a = pose.axis[i]
@@ -309,22 +325,26 @@ def declutter(figure, artists: list["RobotArtist"]) -> None:
 
 
 def robot_figure(skeleton: Skeleton, pose: Poses, title: str, frame: Frame | None = None,
-                 labels: bool = True):
-    """The robot at ``pose`` in a 3-D view and the three projections (a Figure)."""
+                 labels: bool = True, normal: int | None = None):
+    """The robot at ``pose`` in a 3-D view and the three projections, or in its plane
+    alone when it moves in the plane across world axis ``normal`` (a Figure)."""
     import textwrap
 
     from matplotlib.figure import Figure
 
     frame = frame or Frame.around(pose)
-    figure = Figure(figsize=(10, 9.4), layout="constrained")
+    chosen = views(skeleton.gravity, normal)
+    single = len(chosen) == 1
+    figure = Figure(figsize=(7.5, 7.2) if single else (10, 9.4), layout="constrained")
     artists = []
-    for k, view in enumerate(views(skeleton.gravity)):
-        ax = figure.add_subplot(2, 2, k + 1, **({"projection": "3d"} if view.plane is None
-                                                else {}))
+    for k, view in enumerate(chosen):
+        ax = (figure.add_subplot(1, 1, 1) if single else
+              figure.add_subplot(2, 2, k + 1, **({"projection": "3d"} if view.plane is None
+                                                 else {})))
         artist = RobotArtist(ax, view, skeleton, frame, labels)
         artist.update(pose)
         artists.append(artist)
-    handles = artists[1].handles()
+    handles = next(a for a in artists if not a.three_d).handles()
     figure.legend(handles=handles, labels=[h.get_label() for h in handles],
                   loc="outside lower center", ncols=min(5, len(handles)), fontsize=8,
                   frameon=False)
@@ -335,34 +355,41 @@ def robot_figure(skeleton: Skeleton, pose: Poses, title: str, frame: Frame | Non
 
 
 class Animation:
-    """One figure redrawn pose after pose: a 3-D view and the front view.
+    """One figure redrawn pose after pose: a 3-D view and the front view (a planar
+    robot: its plane), the path of every tip so far as a trace, the time above.
 
     The axes, ticks and grids are drawn once; each frame restores them and
     draws only the moving artists and the clock (blitting: ~10x faster than
     drawing the whole figure, whose layout alone costs more than a frame).
+    ``size`` in inches at ``dpi`` (12.8 x 7.2 at 100: 1280 x 720 pixels);
+    ``font``: the axis labels' size in points (names 1 less, the title 2 more).
     """
 
-    def __init__(self, skeleton: Skeleton, frame: Frame, title: str, size=(9.6, 4.8),
-                 dpi: int = 80):
+    def __init__(self, skeleton: Skeleton, frame: Frame, title: str, size=(12.8, 7.2),
+                 dpi: int = 100, normal: int | None = None, font: float = 10):
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
 
         self.figure = Figure(figsize=size, dpi=dpi, layout="constrained")
         self.canvas = FigureCanvasAgg(self.figure)
-        chosen = views(skeleton.gravity)[:2]
+        chosen = views(skeleton.gravity, normal)[:2]
         self.artists = []
         for k, view in enumerate(chosen):
-            ax = self.figure.add_subplot(1, 2, k + 1, **({"projection": "3d"}
-                                                         if view.plane is None else {}))
-            self.artists.append(RobotArtist(ax, view, skeleton, frame, labels=True))
+            ax = self.figure.add_subplot(1, len(chosen), k + 1,
+                                         **({"projection": "3d"} if view.plane is None else {}))
+            self.artists.append(RobotArtist(ax, view, skeleton, frame, labels=True, font=font))
+        self.tips = [i for i in range(len(skeleton.bodies)) if not skeleton.children(i)]
+        self.path: list[np.ndarray] = []
+        self.traces = [artist.ax.plot(*([[np.nan]] * artist.dims), color=TRACE, linewidth=1.4,
+                                      alpha=0.85, zorder=6)[0] for artist in self.artists]
         self.title = title
-        self.clock = self.figure.suptitle(f"{title}    t = 0000.00 s", fontsize=11)
+        self.clock = self.figure.suptitle(f"{title}    t = 0000.00 s", fontsize=font + 2)
         self.background = None
 
     def _prepare(self) -> None:
         """Draw what never moves, once, and keep it."""
-        for artist in self.artists:
-            for moving in artist.moving():
+        for artist, trace in zip(self.artists, self.traces):
+            for moving in [trace, *artist.moving()]:
                 moving.set_animated(True)
         self.clock.set_animated(True)
         self.canvas.draw()                                   # runs the layout once
@@ -374,9 +401,13 @@ class Animation:
         if self.background is None:
             self._prepare()
         self.canvas.restore_region(self.background)
-        for artist in self.artists:
+        self.path.append(np.asarray(pose.tip)[self.tips])
+        path = _joined([np.array([tips[j] for tips in self.path])
+                        for j in range(len(self.tips))])
+        for artist, trace in zip(self.artists, self.traces):
             artist.update(pose)
-            for moving in artist.moving():
+            artist._set(trace, path)
+            for moving in [trace, *artist.moving()]:
                 artist.ax.draw_artist(moving)
         self.clock.set_text(f"{self.title}    t = {t:6.2f} s{note}")
         self.figure.draw_artist(self.clock)

@@ -8,10 +8,21 @@ Time plots are small multiples: one panel per quantity, and never two units
 on one axis (angles in degrees apart from lengths in metres, N·m apart from
 N).  The panels fill a grid of up to four columns and five rows per column
 (then the rows shrink), so a 12-joint arm stays within a page: at most
-FIGURE_MAX_HEIGHT inches tall.
+FIGURE_MAX_HEIGHT inches tall.  Every panel names its signals: the y label
+starts with the signal's name, or the panel has a legend (placed by
+Matplotlib where it hides the fewest points); an effort panel can carry its
+actuator's limit as dashed lines at +-limit.
+
+A report's own size, title and font size (``FigureStyle``: ``--size``,
+``--title``, ``--font-size``) are applied to a finished figure by
+``apply_style``; ``styled(style)`` makes every figure rendered inside it
+(``figure_bytes``, hence ``write_figure`` and ``write_plot``) take that style,
+so a command sets it once for whatever its service draws.
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import io
 import math
 from dataclasses import dataclass
@@ -35,9 +46,73 @@ QUANTITY = {"N*m": "torque", "N": "force", "rad": "angle", "m": "length"}
 
 @dataclass(frozen=True)
 class Panel:
-    """One axis: ``label`` (quantity and unit, e.g. ``q1 (deg)``) and its lines."""
+    """One axis: ``label`` (quantity and unit, e.g. ``q1 (deg)``), its lines, and
+    ``limit``: a bound drawn as dashed lines at +-limit (an actuator's effort limit)."""
     label: str
     series: tuple[tuple[str, np.ndarray], ...]
+    limit: float | None = None
+
+    @property
+    def named(self) -> bool:
+        """Whether the y label already names the panel's one signal (``q1 (deg)``)."""
+        return len(self.series) == 1 and self.label.split(" ")[0] == self.series[0][0]
+
+
+@dataclass(frozen=True)
+class FigureStyle:
+    """A report's wishes for a figure: ``size`` (width, height) in inches, ``title``
+    (replaces the figure's own), ``font_size`` in points for the axis labels (every
+    other text, ticks, legends and the title, scales with it)."""
+    size: tuple[float, float] | None = None
+    title: str | None = None
+    font_size: float | None = None
+
+
+_STYLE: contextvars.ContextVar[FigureStyle] = contextvars.ContextVar("anadyn_figure_style",
+                                                                     default=FigureStyle())
+
+
+@contextlib.contextmanager
+def styled(style: FigureStyle):
+    """Within the block, every figure rendered by ``figure_bytes`` takes ``style``."""
+    token = _STYLE.set(style)
+    try:
+        yield style
+    finally:
+        _STYLE.reset(token)
+
+
+def current_style() -> FigureStyle:
+    """The style set by the innermost ``styled`` block (an empty one outside)."""
+    return _STYLE.get()
+
+
+def apply_style(figure, style: FigureStyle | None = None):
+    """``figure`` resized, retitled and its texts scaled as ``style`` (default: the
+    current one) says; returns the figure."""
+    from matplotlib.text import Text
+
+    style = current_style() if style is None else style
+    if style.size is not None:
+        figure.set_size_inches(*style.size)
+    if style.title is not None:
+        figure.suptitle(style.title, fontsize=11)
+    if style.font_size is not None:
+        labels = [label.get_fontsize() for ax in figure.axes
+                  for label in (ax.xaxis.label, ax.yaxis.label) if label.get_text()]
+        reference = float(np.median(labels)) if labels else 10.0
+        factor = style.font_size / reference
+        ticks = {id(ax): _tick_size(ax) for ax in figure.axes}
+        for text in set(figure.findobj(Text)):
+            text.set_fontsize(text.get_fontsize() * factor)
+        for ax in figure.axes:
+            ax.tick_params(labelsize=ticks[id(ax)] * factor)
+    return figure
+
+
+def _tick_size(ax) -> float:
+    labels = ax.xaxis.get_ticklabels() or ax.yaxis.get_ticklabels()
+    return labels[0].get_fontsize() if labels else 10.0
 
 
 def unit_text(unit: str) -> str:
@@ -70,11 +145,13 @@ def state_panels(coordinates: Sequence[tuple[str, str]], q: np.ndarray,
 
 
 def effort_panels(actuators: Sequence[tuple[str, str]], values: np.ndarray,
-                  one_each: bool = False) -> list[Panel]:
+                  one_each: bool = False, limits: Sequence[float | None] = ()) -> list[Panel]:
     """Efforts grouped by unit (torques apart from forces), at most MAX_SERIES lines
-    a panel; ``one_each``: a panel per actuator.  ``values``: rows x m."""
+    a panel; ``one_each``: a panel per actuator, with its ``limits[k]`` (|effort|
+    bound, None: none) drawn.  ``values``: rows x m."""
     if one_each:
-        return [Panel(f"{name} ({unit_text(unit)})", ((name, values[:, k]),))
+        bounds = list(limits) + [None] * (len(actuators) - len(limits))
+        return [Panel(f"{name} ({unit_text(unit)})", ((name, values[:, k]),), bounds[k])
                 for k, (name, unit) in enumerate(actuators)]
     panels = []
     for unit in dict.fromkeys(u for _, u in actuators):
@@ -119,12 +196,17 @@ def time_figure(t: np.ndarray, panels: Iterable, title: str, xlabel: str = "t (s
         panel = panels[k]
         for name, values in panel.series:
             ax.plot(t, values, label=name, linewidth=1.1)
+        if panel.limit is not None:
+            for sign in (1, -1):
+                ax.axhline(sign * panel.limit, color="tab:red", linestyle="--", linewidth=0.9,
+                           label=f"limit ±{panel.limit:g}" if sign > 0 else None)
         ax.set_ylabel(panel.label, fontsize=size)
         ax.tick_params(labelsize=size - 1)
         ax.grid(True, alpha=0.35, linewidth=0.6)
         ax.margins(x=0)
-        if len(panel.series) > 1:
-            ax.legend(loc="best", fontsize=size - 1, ncols=min(3, len(panel.series)),
+        if not panel.named or panel.limit is not None:
+            entries = len(panel.series) + (panel.limit is not None)
+            ax.legend(loc="best", fontsize=size - 1, ncols=min(3, entries),
                       handlelength=1.5, framealpha=0.7)
         row, column = divmod(k, columns)
         below = (row + 1) * columns + column
@@ -137,9 +219,10 @@ def time_figure(t: np.ndarray, panels: Iterable, title: str, xlabel: str = "t (s
 
 def figure_bytes(figure, fmt: str, dpi: int = DPI) -> bytes:
     """``figure`` rendered as png (DPI), svg or pdf, without a creation date
-    (the same run gives the same file)."""
+    (the same run gives the same file), in the current style (``styled``)."""
     import matplotlib
 
+    apply_style(figure)
     buffer = io.BytesIO()
     metadata = {"png": {"Software": None}, "svg": {"Date": None},
                 "pdf": {"CreationDate": None, "ModDate": None}}[fmt]

@@ -3,10 +3,20 @@
 The rows sit at a round step (1, 2 or 5 times a power of ten) chosen so
 that a table has about ROWS rows whatever the horizon (0.5 s or 1000 s),
 plus the last time when the step does not reach it.
+
+Wide tables fit the terminal (``fit``): a table (two or more lines of one
+length, its columns separated by blank gutters) wider than the terminal
+keeps its first columns and its last one, with an ellipsis column for the
+rest, cut only in the gutters (a value, minus sign and all, is never split
+or wrapped), and a line says where every column is.  Output that is not a
+terminal (a pipe, a file, a CI log) keeps every column.
 """
 from __future__ import annotations
 
 import math
+import os
+import shutil
+import sys
 from typing import Sequence
 
 ROWS = 15           # at most this many steps in a table (ROWS + 1 rows, + the end)
@@ -71,3 +81,92 @@ def render(headers: Sequence[str], rows: Sequence[Sequence[str]], min_width: int
 
 def rate_unit(unit: str) -> str:
     return f"{unit}/s"
+
+
+ELLIPSIS = "  \u2026"        # the column standing for the columns left out
+
+
+def terminal_width() -> int | None:
+    """Columns of the terminal (``$COLUMNS`` wins); None when standard output is
+    not a terminal and ``$COLUMNS`` is not set: every column is printed."""
+    return _terminal("COLUMNS", 0)
+
+
+def terminal_lines() -> int | None:
+    """Lines of the terminal (``$LINES`` wins); None when not a terminal."""
+    return _terminal("LINES", 1)
+
+
+def _terminal(variable: str, index: int) -> int | None:
+    value = os.environ.get(variable, "")
+    if value.isdigit() and int(value) > 0:
+        return int(value)
+    if not sys.stdout.isatty():
+        return None
+    return shutil.get_terminal_size()[index]
+
+
+def _fields(block: list[str]) -> list[tuple[int, int]]:
+    """(start, end) of the columns of ``block`` (lines of one length): the runs of
+    positions where some line has a character, between gutters blank in every line."""
+    used = [any(line[k] != " " for line in block) for k in range(len(block[0]))]
+    fields, start = [], None
+    for k, busy in enumerate(used + [False]):
+        if busy and start is None:
+            start = k
+        elif not busy and start is not None:
+            fields.append((start, k))
+            start = None
+    return fields
+
+
+def _cut(block: list[str], width: int) -> tuple[list[str], int] | None:
+    """``block`` with its middle columns left out so that it is at most ``width``
+    wide (the first columns that fit, an ellipsis, the last column), and how many
+    columns were left out; None when it has too few columns to cut."""
+    fields = _fields(block)
+    if len(fields) < 3:
+        return None
+    tail = len(block[0]) - fields[-2][1]          # the last column with its gutter
+    keep = 0
+    while keep + 1 < len(fields) - 1 and \
+            fields[keep + 1][1] + len(ELLIPSIS) + tail <= width:
+        keep += 1
+    end, resume = fields[keep][1], fields[-2][1]
+    return [line[:end] + ELLIPSIS + line[resume:] for line in block], len(fields) - keep - 2
+
+
+def fit(text: str, width: int | None, full: str) -> str:
+    """``text`` with every table wider than ``width`` (less one column, so that no
+    terminal wraps it) cut to fit; ``full`` names where every column is, said in one
+    line under each cut table.  ``width`` None: ``text`` unchanged."""
+    if not width:
+        return text
+    limit = max(width - 1, 20)
+    lines = text.split("\n")
+    out, k = [], 0
+    while k < len(lines):
+        j = k + 1
+        while j < len(lines) and len(lines[j]) == len(lines[k]):
+            j += 1
+        block = lines[k:j]
+        cut = _cut(block, limit) if len(block) >= 2 and len(block[0]) > limit else None
+        if cut is None:
+            out += block
+        else:
+            out += cut[0]
+            out.append(f"({cut[1]} column{'s' * (cut[1] != 1)} left out to fit {width} "
+                       f"columns; {full} has every one)")
+        k = j
+    return "\n".join(out)
+
+
+def repeat_header(lines: list[str], header: str, every: int | None) -> list[str]:
+    """``lines`` (a table's rows) with ``header`` before them and again after every
+    ``every`` rows (a screenful), so that a long table keeps its header in view."""
+    if not every or every < 5 or len(lines) <= every:
+        return [header, *lines]
+    out = []
+    for start in range(0, len(lines), every):
+        out += [header, *lines[start:start + every]]
+    return out

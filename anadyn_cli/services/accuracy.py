@@ -56,6 +56,7 @@ import numpy as np
 from ..errors import NumericalError, SettingError
 from ..model.info import RobotInfo
 from ..numeric import constrained, integrators
+from ..numeric.build import computation
 from ..numeric.integrators import Problem, state_error
 from ..numeric.model import NumericModel
 from ..numeric.settings import output_grid, resolve
@@ -214,6 +215,7 @@ class AccuracyStudy:
     repeats: int
     max_calls: int
     timings: dict = field(default_factory=dict)
+    computation: dict = field(default_factory=dict)   # what ran (numeric.build.computation)
 
     def levels(self) -> list[dict]:
         """For each error level 10^-k reached by some run: the fastest setting, and auto.
@@ -330,7 +332,7 @@ def study(model: NumericModel, methods=integrators.METHODS,
                 rows[-1].drift = max(constrained.drift(model, solution.t, solution.x))
     timings["study"] = time.perf_counter() - start
     return AccuracyStudy(robot, settings.t_end, settings.output_step, grid, refs, given_up,
-                         ref_error, rows, repeats, max_calls, timings)
+                         ref_error, rows, repeats, max_calls, timings, computation(model))
 
 
 # ----------------------------------------------------------------------------
@@ -359,7 +361,8 @@ def csv_text(result: AccuracyStudy) -> str:
 def summary(result: AccuracyStudy) -> dict:
     """Key figures (``accuracy.json``)."""
     return {
-        "robot": result.robot.name, "t_end": result.t_end, "output_step": result.output_step,
+        "robot": result.robot.name, **result.computation, "t_end": result.t_end,
+        "output_step": result.output_step,
         "rows_on_grid": len(result.grid), "repeats": result.repeats,
         "max_calls": result.max_calls, "atol_ratio": ATOL_RATIO,
         "references": [{"method": r.method, "rtol": r.rtol, "atol": r.atol,
@@ -413,14 +416,10 @@ def figure(result: AccuracyStudy):
         ax.axvline(result.reference_error, color="grey", linestyle="--", linewidth=1,
                    label=f"reference error ~{result.reference_error:.1e}")
     skipped = sorted({r.method for r in result.rows if r.status in ("over budget", "skipped")})
-    formulation = getattr(result, "formulation", "")
-    title = (f"{result.robot.name}: work-precision{', ' + formulation if formulation else ''}, "
-             f"{result.t_end:g} s, max error over {len(result.grid)} rows, "
-             f"rtol {min(r.rtol for r in result.rows):.0e}..{max(r.rtol for r in result.rows):.0e}"
-             f", atol = rtol x {ATOL_RATIO:g}")
+    fig.suptitle(f"{result.robot.name}: accuracy", fontsize=11)   # the settings: accuracy.json
     if skipped:
-        title += f"\nover {result.max_calls} RHS calls (not shown): {', '.join(skipped)}"
-    ax.set_title(title, fontsize=10)
+        ax.set_title(f"over {result.max_calls} RHS calls (not shown): {', '.join(skipped)}",
+                     fontsize=8)
     ax.set_xlabel("max error over the output grid (scaled state norm)")
     ax.set_ylabel(f"run time, s (min of {result.repeats})")
     ax.grid(True, which="both", alpha=0.3)
@@ -464,13 +463,16 @@ def reference_lines(result: AccuracyStudy) -> list[str]:
     return lines
 
 
-def table(result: AccuracyStudy) -> str:
-    """The study as text: references, the rows, and the fastest setting per error level."""
+def table(result: AccuracyStudy, header_every: int | None = None) -> str:
+    """The study as text: references, the rows (their header again after every
+    ``header_every`` rows, e.g. a screenful), and the fastest setting per error level."""
+    from ..output.tables import repeat_header
+
     lines = reference_lines(result)
     lines.append("")
     header = (f"{'method':<7} {'rtol':>7} {'max_error':>10} {'final_err':>10} {'time':>9} "
               f"{'rhs':>7} {'jac':>5} {'steps':>6}  note")
-    lines.append(header)
+    body: list[str] = []
     floor = 10 * result.reference_error if not math.isnan(result.reference_error) else 0.0
     rows = list(result.rows)
     k = 0
@@ -483,20 +485,21 @@ def table(result: AccuracyStudy) -> str:
                 last = rows[k]
                 k += 1
             through = "" if last is r else f" (and every rtol down to {last.rtol:.0e})"
-            lines.append(f"{r.method:<7} {r.rtol:7.0e} {'skipped':>10}  {r.note}{through}")
+            body.append(f"{r.method:<7} {r.rtol:7.0e} {'skipped':>10}  {r.note}{through}")
         elif r.ok:
             mark = "*" if r.max_error <= floor else ""
             note = " ".join(p for p in ((f"ran {r.ran}" if r.ran != r.method else ""),
                                         "vs " + r.reference.split(" rtol")[0], r.note,
                                         "" if math.isnan(r.drift) else
                                         f"constraint drift {r.drift:.1e}") if p)
-            lines.append(f"{r.method:<7} {r.rtol:7.0e} {r.max_error:9.2e}{mark or ' '} "
+            body.append(f"{r.method:<7} {r.rtol:7.0e} {r.max_error:9.2e}{mark or ' '} "
                          f"{r.final_error:10.2e} {_ms(r.wall_s):>9} {r.rhs_calls:7d} "
                          f"{r.jacobian_calls:5d} {r.steps:6d}  {note}")
         else:
             calls = f">{r.rhs_calls}" if r.status == "over budget" else ""
-            lines.append(f"{r.method:<7} {r.rtol:7.0e} {r.status:>10} {'':>10} {'':>9} "
+            body.append(f"{r.method:<7} {r.rtol:7.0e} {r.status:>10} {'':>10} {'':>9} "
                          f"{calls:>7} {'':5} {'':6}  {r.note}")
+    lines += repeat_header(body, header, header_every)
     if floor > 0 and any(r.ok and r.max_error <= floor for r in result.rows):
         lines.append("* within 10x of the reference error estimate: a bound, not a measurement")
     lines.append("")

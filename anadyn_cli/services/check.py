@@ -18,7 +18,10 @@ carried along as one more state.  Along that path:
   set by stability, not accuracy: explicit methods are stability-limited
   and the scene is called **stiff**.  This is the verdict; the eigenvalues
   explain it.  Each run stops at a call budget (the window then ends where
-  the loose run stopped), so very stiff scenes stay cheap.
+  the loose run stopped), so very stiff scenes stay cheap.  A path on which
+  no mode decays (every eigenvalue 0, e.g. coaxial vertical joints at rest:
+  gravity along the axes moves nothing) is not stiff, whatever the counts:
+  both runs then take the fewest steps, and the time constant is "none".
 * **Mass matrix** condition number at every row (up to 20,000 rows), raw and
   after symmetric diagonal scaling D^-1/2 M D^-1/2, D = diag(M).  The raw
   number mixes units and link sizes (a 1 mm link gives 1e9 and LU solves it
@@ -59,6 +62,7 @@ import numpy as np
 from ..errors import CheckFailed, NumericalError, SettingError, positive
 from ..model.info import RobotInfo
 from ..numeric import constrained, integrators
+from ..numeric.build import computation
 from ..numeric.integrators import Problem
 from ..numeric.model import NumericModel, scaled_condition
 from ..numeric.settings import output_grid, resolve
@@ -70,6 +74,7 @@ PROBE_RTOLS = (1e-3, 1e-7)
 STABILITY_LIMITED = 0.5       # calls(loose) / calls(tight) above this: stability-limited
 MAX_CONDITION = 1e8           # scaled mass-matrix condition number
 BADLY_SCALED = 1e6            # raw condition number above this: a warning
+UNDAMPED = 1e-6               # fastest decay x horizon below this: nothing decays
 ENERGY_TOL = 1e-6             # |T + V - W - E0| / energy scale
 CONDITION_ROWS = 20_000
 
@@ -128,6 +133,7 @@ class StabilityReport:
     load_work: np.ndarray | None = None   # loads' work W_loads(t); None: no loads or
     dissipated: np.ndarray | None = None  # joint forces; energy dissipated E_d(t) >= 0
     constraints: "constrained.ConstraintCheck | None" = None   # closed chains
+    computation: dict = field(default_factory=dict)   # what ran (numeric.build.computation)
 
     @property
     def passive(self) -> bool:
@@ -141,7 +147,11 @@ class StabilityReport:
 
     @property
     def stiff(self) -> bool:
-        return self.probe.limited
+        """The probe's verdict, given a mode that decays: with none (e.g. two
+        coaxial vertical joints under gravity along them, where nothing moves
+        and every eigenvalue is 0) both probe runs take the fewest steps, and
+        equal call counts measure nothing; stability limits no step."""
+        return self.probe.limited and self.auto_ratio > UNDAMPED
 
     @property
     def fastest_decay(self) -> float:
@@ -322,7 +332,8 @@ def check(model: NumericModel, rtol: float | None = None,
     report = StabilityReport(robot, float(grid[-1]), settings.rtol, settings.atol, grid, x,
                              work, calls, wall, sample_t, decay, growth, speed, classic, raw,
                              scaled, cond_t, residual, scale, probe, timings=timings,
-                             load_work=load_work, dissipated=dissipated)
+                             load_work=load_work, dissipated=dissipated,
+                             computation=computation(model))
     if constrained.is_constrained(model):      # constraint Jacobian along the path
         report.constraints = constrained.conditioning(model, grid, x)
     _judge(report, max_condition, energy_tol)
@@ -411,10 +422,15 @@ def text(report: StabilityReport) -> str:
            if r.load_work is None else
            ", actuators' and loads' work and dissipated energy integrated with the state"),
         f"eigenvalues of the Jacobian at {len(r.sample_t)} points along the path:",
-        f"  fastest decay        {r.fastest_decay:.4g} 1/s at t = {r.sample_t[k_decay]:.4g} s"
-        f" (time constant {_seconds(1 / r.fastest_decay) if r.fastest_decay else 'none'})",
+        "  fastest decay        " + (
+            f"{r.fastest_decay:.4g} 1/s at t = {r.sample_t[k_decay]:.4g} s (time constant "
+            f"{_seconds(1 / r.fastest_decay)})" if r.fastest_decay * r.t_end > UNDAMPED else
+            "none: no motion dies out over the run (an undamped robot: its modes oscillate "
+            "or drift; the figures are in check.json)"),
         f"  fastest rate |lambda| {r.speed[k_speed]:.4g} 1/s at t = {r.sample_t[k_speed]:.4g} s",
-        f"  fastest growth       {float(np.nanmax(r.growth)):.4g} 1/s",
+        "  fastest growth       " + (f"{float(np.nanmax(r.growth)):.4g} 1/s"
+                                     if float(np.nanmax(r.growth)) * r.t_end > UNDAMPED
+                                     else "none: no motion grows over the run"),
         f"  stiffness ratio      {r.classic[k_classic]:.3g} (max/min |Re lambda| of the decaying"
         f" modes, min at least 1/horizon, at t = {r.sample_t[k_classic]:.4g} s); fastest decay"
         f" x horizon {r.auto_ratio:.3g} (auto's threshold {integrators.STIFF_RATIO:g})",
@@ -424,7 +440,9 @@ def text(report: StabilityReport) -> str:
         f"{'at least ' if p.tight_capped else ''}{1 / p.ratio:.2g}x for a 1e4 looser tolerance"
         f" (~6x when accuracy sets the step, ~1x when stability does)",
         f"stiffness: {'stiff' if r.stiff else 'not stiff'} (explicit methods are "
-        f"{'' if r.stiff else 'not '}stability-limited)",
+        f"{'' if r.stiff else 'not '}stability-limited"
+        + ("; no mode decays along the path, so the equal call counts measure nothing)"
+           if p.limited and not r.stiff else ")"),
         f"mass matrix: condition number up to {r.condition[k_cond]:.3g} (t = "
         f"{r.condition_t[k_cond]:.4g} s), {r.scaled_condition[k_scaled]:.3g} after diagonal "
         "scaling",
@@ -453,7 +471,8 @@ def summary(report: StabilityReport) -> dict:
     """Key figures (``check.json``)."""
     r = report
     return {
-        "robot": r.robot.name, "t_end": r.t_end, "rows": len(r.t), "rtol": r.rtol,
+        "robot": r.robot.name, **r.computation, "t_end": r.t_end, "rows": len(r.t),
+        "rtol": r.rtol,
         "atol": r.atol, "rhs_calls": r.rhs_calls, "passed": r.passed, "stiff": r.stiff,
         "fastest_decay": r.fastest_decay,
         "fastest_time_constant": 1 / r.fastest_decay if r.fastest_decay else None,

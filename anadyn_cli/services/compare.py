@@ -34,14 +34,14 @@ import csv
 import io
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from .. import files as output
 from .. import progress
-from ..errors import CheckFailed, NumericalError, SettingError, positive
+from ..errors import CheckFailed, NumericalError, check
 from ..numeric import constrained, integrators
 from ..numeric.model import NumericModel
 from ..numeric.settings import output_grid, resolve
@@ -419,14 +419,11 @@ def compare(robots, samples: int = SAMPLES, seed: int = SEED, rtol: float = RTOL
             trajectory_tol: float = TRAJECTORY_TOL, symbolic_terms: int = SYMBOLIC_TERMS,
             t_end: float | None = None, use_cache: bool = False) -> CompareResult:
     """Compare Kane and Lagrange on each of ``robots`` (validated ``Robot``s)."""
-    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
-        raise SettingError("samples", f"must be a positive whole number, got {samples}")
-    if symbolic_terms < 0:
-        raise SettingError("symbolic_terms", f"must be 0 or more, got {symbolic_terms}")
-    positive("numeric_tolerance", rtol)
-    positive("trajectory_tolerance", trajectory_tol)
-    if t_end is not None:
-        positive("t_end", t_end)
+    samples, seed = check("samples", samples), check("seed", seed)
+    symbolic_terms = check("symbolic_terms", symbolic_terms)
+    rtol = check("numeric_tolerance", rtol)
+    trajectory_tol = check("trajectory_tolerance", trajectory_tol)
+    t_end = check("t_end", t_end)
     start = time.perf_counter()
     done = []
     with progress.task("comparing kane and lagrange", total=len(robots)) as step:
@@ -515,10 +512,7 @@ def summary(result: CompareResult) -> dict:
     robots: dict[str, dict] = {}
     worst = {q: {"max_abs": 0.0, "max_rel": 0.0} for q in (*QUANTITIES, "lambda",
                                                            "trajectory")}
-    for r in result.robots:
-        key, k = r.name, 2
-        while key in robots:
-            key, k = f"{r.name}-{k}", k + 1
+    for key, r in zip(keys(result), result.robots):
         s = r.symbolic
         robots[key] = {
             "source": r.source, "passed": r.passed, "mismatches": r.mismatches,
@@ -537,8 +531,8 @@ def summary(result: CompareResult) -> dict:
                 current = worst[d.quantity][part]
                 worst[d.quantity][part] = (None if current is None or not math.isfinite(value)
                                            else max(current, value))
-    return {"passed": result.passed,
-            "mismatches": sum(len(r.mismatches) for r in result.robots),
+    return {"passed": result.passed, "formulation": ["kane", "lagrange"],
+            "evaluator": "closed-form", "mismatches": sum(len(r.mismatches) for r in result.robots),
             "simulation_failures": sum(bool(r.failure) for r in result.robots),
             "robots_compared": len(result.robots),
             "symbolic_proven": sum(r.symbolic.status == "zero" for r in result.robots),
@@ -563,10 +557,31 @@ def csv_text(result: CompareResult) -> str:
     return buffer.getvalue()
 
 
+def keys(result: CompareResult) -> list[str]:
+    """Each robot's name, made unique (a name met again gets -2, -3, ...): its key in
+    compare.json and, comparing several, its folder."""
+    found: list[str] = []
+    for r in result.robots:
+        key, k = r.name, 2
+        while key in found:
+            key, k = f"{r.name}-{k}", k + 1
+        found.append(key)
+    return found
+
+
+@output.one_set
 def write(result: CompareResult, out: Path) -> list[Path]:
-    """compare.csv and compare.json in ``out``."""
-    out = output.prepare_dir(out)
-    written = [out / "compare.csv", out / "compare.json"]
-    output.write_text(written[0], csv_text(result))
-    output.write_json(written[1], summary(result))
+    """compare.csv and compare.json of each robot: in ``out`` when there is one
+    robot, else in ``out/<robot name>/`` for each (the command's ``out`` is then
+    results/, so every robot's files are in results/<robot>/ as with any command);
+    the files of all the robots go in place together (``files.one_set``)."""
+    parts = ([(out, result)] if len(result.robots) == 1 else
+             [(out / key, replace(result, robots=[r]))
+              for key, r in zip(keys(result), result.robots)])
+    written = []
+    for folder, part in parts:
+        folder = output.prepare_dir(folder)
+        written += [folder / "compare.csv", folder / "compare.json"]
+        output.write_text(written[-2], csv_text(part))
+        output.write_json(written[-1], summary(part))
     return written

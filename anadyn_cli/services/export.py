@@ -11,6 +11,10 @@ anadyn (C: <math.h>; Python: math; MATLAB: none):
     inverse(t, q, dq, ddq)    tau = pinv(B) (M ddq - F)
 
 and the LaTeX document the equations in the "... = 0" form and M, F, B.
+``casadi`` and ``jax`` export forward_dynamics(t, q, dq, tau), inverse_dynamics(t, q,
+dq, ddq) and mass_matrix(q) from the recursive dynamics' traced statements
+(``output.export.traced``): serialized ``casadi.Function``s, or a module of pure
+``jax.numpy`` functions.
 Parameters are folded in, or (``symbolic``) passed in as a struct / mapping
 whose defaults are the robot file's values.  The inverse dynamics use B's
 pseudo-inverse: B square and invertible gives the exact efforts; with fewer
@@ -26,8 +30,11 @@ from pathlib import Path
 from ..model.constraints import refuse_closed_chain
 from ..errors import SettingError, ModelError
 from .. import files as output
+from .. import progress
 
-LANGUAGES = ("python", "c", "matlab", "latex")
+LANGUAGES = ("python", "c", "matlab", "latex", "casadi", "jax")
+#: languages built from the traced recursive dynamics (no formulation, no symbolic)
+TRACED = ("casadi", "jax")
 
 
 @dataclass
@@ -39,12 +46,18 @@ class ExportResult:
     timings: dict = field(default_factory=dict)
 
 
-def check_options(lang: str, fragment: bool = False) -> None:
-    """Refuse impossible combinations before any work (ModelError, exit 2)."""
+def check_options(lang: str, fragment: bool = False, symbolic: bool = False) -> None:
+    """Refuse impossible combinations before any work (ModelError, exit 2), and
+    ``casadi`` without CasADi installed."""
     if lang not in LANGUAGES:
         raise ModelError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
     if fragment and lang != "latex":
         raise SettingError("fragment", f"applies to lang latex only, not {lang}")
+    if symbolic and lang in TRACED:
+        raise SettingError("symbolic", f"applies to python, c, matlab and latex, not {lang}")
+    if lang == "casadi":
+        from ..output.export.casadi import require
+        require()
 
 
 def export(robot, lang: str, formulation: str = "kane", symbolic: bool = False,
@@ -55,25 +68,44 @@ def export(robot, lang: str, formulation: str = "kane", symbolic: bool = False,
     from ..output.export.model import ExportModel
     from ..symbolic.formulations import derive
 
-    check_options(lang, fragment)
+    check_options(lang, fragment, symbolic)
     refuse_closed_chain(robot, "export")
     timings = {} if timings is None else timings
+    if lang in TRACED:
+        return _traced(robot, lang, timings)
     start = time.perf_counter()
     if eom is None:
         eom = derive(robot, formulation, symbolic=symbolic)
     timings["derive"] = time.perf_counter() - start
     start = time.perf_counter()
-    model = ExportModel.build(robot, eom)
-    if lang == "latex":
-        texts = latex.files(model, fragment)
-    else:
-        texts = {"c": c.files, "python": python.files, "matlab": matlab.files}[lang](model)
+    with progress.task(f"generating the {lang} files of {robot.name}") as step:
+        step.note("the Jacobian's partial derivatives")
+        model = ExportModel.build(robot, eom)
+        if lang == "latex":
+            texts = latex.files(model, fragment)
+        else:
+            texts = {"c": c.files, "python": python.files, "matlab": matlab.files}[lang](
+                model, step.note)
     timings["generate"] = time.perf_counter() - start
     return ExportResult(lang, model, texts, fragment, timings)
 
 
+def _traced(robot, lang: str, timings: dict) -> ExportResult:
+    from ..output.export import casadi, jax, traced
+
+    start = time.perf_counter()
+    with progress.task(f"tracing the dynamics of {robot.name}"):
+        model = traced.trace(robot)
+    timings["derive"] = time.perf_counter() - start
+    start = time.perf_counter()
+    texts = {"casadi": casadi.files, "jax": jax.files}[lang](model)
+    timings["generate"] = time.perf_counter() - start
+    return ExportResult(lang, model, texts, False, timings)
+
+
+@output.one_set
 def write(result: ExportResult, out: Path) -> list[Path]:
-    """Every file, then export.json; each written whole or not at all."""
+    """Every file, then export.json, put in place together (``files.one_set``)."""
     out = output.prepare_dir(out)
     written = []
     for name, text in result.files.items():
@@ -86,9 +118,17 @@ def write(result: ExportResult, out: Path) -> list[Path]:
 
 def summary(result: ExportResult) -> dict:
     model = result.model
+    if result.lang in TRACED:
+        return {"robot": model.robot_name, "lang": result.lang, "evaluator": "recursive",
+                "coordinates": model.coordinates, "efforts": model.efforts,
+                "functions": {name: [arg for arg, _ in f.args] for name, f in
+                              model.functions.items()},
+                "files": {name: {"bytes": len(text.encode("utf-8"))}
+                          for name, text in result.files.items()},
+                "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)}}
     return {
         "robot": model.robot_name, "name": model.name, "lang": result.lang,
-        "formulation": model.formulation, "symbolic": model.symbolic,
+        "formulation": model.formulation, "evaluator": "closed-form", "symbolic": model.symbolic,
         "fragment": result.fragment, "coordinates": [c.name for c in model.coordinates],
         "efforts": [e.name for e in model.efforts], "controller": model.has_controller,
         "time_dependent": model.time_dependent,

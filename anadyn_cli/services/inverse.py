@@ -1,7 +1,9 @@
 """Inverse dynamics: the actuator efforts that produce a prescribed motion.
 
 Given q(t) from the robot file's ``trajectory`` (exact rates and
-accelerations, see ``trajectory``), the equations M(q) ddq = F(t, q, dq) + B(q) tau
+accelerations, see ``trajectory``) or measured samples of it (``measured``:
+rates and accelerations as given or differentiated, efforts at the samples),
+the equations M(q) ddq = F(t, q, dq) + B(q) tau
 give, with B square and non-singular,
 
     tau(t) = B^-1 (M ddq - F)        at (t, q(t), dq(t), ddq(t))
@@ -21,7 +23,10 @@ grid is reported and checked against a tolerance.  An arm held against
 gravity is usually unstable in open loop (the chapter's arms: deviations grow
 like exp(3..5 t/s), some 1e24-fold over their 15 s), so such a motion is
 integrated in segments short enough for double precision, each restarted
-from the prescribed state (see ``round_trip``).
+from the prescribed state (see ``round_trip``).  A measured motion is followed
+between its samples by its piecewise quintic (``MeasuredMotion``), which passes
+through every sample with the sample's rate and acceleration, so its round trip
+checks the efforts against the measured positions the same way.
 """
 from __future__ import annotations
 
@@ -36,9 +41,11 @@ from ..errors import CheckFailed, ModelError, NumericalError, SettingError, posi
 from ..model.info import RobotInfo
 from ..numeric import constrained, integrators
 from ..numeric.integrators import Problem
+from ..numeric.measured import MeasuredMotion
 from ..numeric.model import NumericModel
 from ..numeric.settings import trajectory_grid
 from .. import files as output
+from ..output.notebook import Displayed
 from ..numeric import limits
 
 DEFAULT_STEP = 0.01          # s, output grid (else the file's simulation.output_step)
@@ -114,9 +121,9 @@ class RoundTrip:
 
 
 @dataclass
-class InverseResult:
+class InverseResult(Displayed):
     robot: RobotInfo
-    formulation: str
+    formulation: str | None       # of the closed forms; None: the recursive evaluator
     kind: str                     # trajectory kind
     duration: float
     step: float
@@ -131,6 +138,15 @@ class InverseResult:
     constraints: "constrained.ConstraintRun | None" = None   # multipliers (closed chains)
     note: str = ""                # how redundant actuation was resolved
     limits: list = field(default_factory=list)   # limits.Exceeded: bounds of the file passed
+    rates: np.ndarray | None = None   # (N, m) each actuator's joint speed B^T dq (open chains)
+
+    @property
+    def evaluator(self) -> str:
+        """recursive or closed-form: what computed the efforts (``numeric.build``)."""
+        return self.dynamics.model.evaluator
+
+    def table(self) -> tuple[list[str], list[np.ndarray]]:
+        return columns(self)          # the CSV's columns (also shown in notebooks)
 
     def to_csv(self, path) -> Path:
         """Write inverse.csv's columns to ``path`` (whole or not at all)."""
@@ -144,41 +160,54 @@ class InverseResult:
 
         return time_figure(self.t, _panels(self, rates), plot_title(self))
 
+    def sizing(self) -> list["Sizing"]:
+        """Each actuator's figures for choosing a motor (``sizing``)."""
+        return sizing(self)
+
 
 def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = True,
             tolerance: float = DEFAULT_TOLERANCE, segment: float | None = None,
-            timings: dict | None = None) -> InverseResult:
-    """Efforts along the file's trajectory (``model.motion``), and the round trip.
+            timings: dict | None = None, measured: MeasuredMotion | None = None
+            ) -> InverseResult:
+    """Efforts along the file's trajectory (``model.motion``), or along a ``measured``
+    motion (``numeric.measured``: at its samples), and the round trip.
 
-    ``step``: output step, s (default: the file's output step, else 0.01);
-    ``tolerance``: largest round-trip tracking error, rad or m; ``segment``:
-    length of the round trip's pieces, s (default: automatic, see round_trip).
+    ``step``: output step, s (default: the file's output step, else 0.01; a measured
+    motion has its samples instead); ``tolerance``: largest round-trip tracking error,
+    rad or m; ``segment``: length of the round trip's pieces, s (default: automatic,
+    see round_trip).
     """
     timings = {} if timings is None else timings
     info = model.info
+    if measured is not None and step is not None:
+        raise SettingError("output_step", "does not apply to a measured motion: its efforts "
+                                          "are computed at its samples")
     step = positive("output_step", step if step is not None
                     else info.simulation.output_step or DEFAULT_STEP)
     tolerance = positive("roundtrip_tolerance", tolerance)
     if segment is not None:
         positive("roundtrip_segment", segment)
     start = time.perf_counter()
-    motion = model.motion
+    motion = model.motion if measured is None else _measured(model, measured)
     if not constrained.is_constrained(model):
         _check_counts(info)
     timings["trajectory"] = time.perf_counter() - start
-    if step > motion.duration:
+    if measured is not None:
+        t, step = measured.t, measured.duration / (len(measured.t) - 1)
+    elif step > motion.duration:
         raise SettingError("output_step", f"{step:g} s is longer than the trajectory's "
                                           f"duration {motion.duration:g} s")
-    dynamics = InverseDynamics(model, motion)
-    if motion.duration / step > MAX_POINTS:
+    elif motion.duration / step > MAX_POINTS:
         raise SettingError("output_step", f"{step:g} s gives more than {MAX_POINTS:.0e} "
                                           f"points over {motion.duration:g} s")
-    t = trajectory_grid(motion.duration, step)
+    else:
+        t = trajectory_grid(motion.duration, step)
+    dynamics = InverseDynamics(model, motion)
     if constrained.is_constrained(model):         # closed chains (numeric.constrained)
         return _closed_chain(model, motion, t, step, roundtrip, tolerance, segment, timings)
     start = time.perf_counter()
     with np.errstate(all="ignore"):
-        q, dq, ddq = motion(t)
+        q, dq, ddq = motion(t) if measured is None else (motion.q, motion.dq, motion.ddq)
         demand, B = dynamics.demand(t, q, dq, ddq)
     elapsed = time.perf_counter() - start
     for name, values in (("q", q), ("dq", dq), ("ddq", ddq)):
@@ -196,12 +225,26 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
     timings["efforts"] = elapsed + time.perf_counter() - start
     _finite(info, t, tau, "the efforts")
     result = InverseResult(info, model.formulation, motion.kind, motion.duration, step, t,
-                           q, dq, ddq, tau, dynamics, timings=timings)
+                           q, dq, ddq, tau, dynamics, timings=timings,
+                           rates=np.einsum("kim,ki->km", B, dq))
     result.limits = limits.check(info, t, q, dq, tau)
     if roundtrip:
         result.roundtrip = round_trip(result, tolerance, segment)
         timings["roundtrip"] = result.roundtrip.wall
     return result
+
+
+def _measured(model: NumericModel, measured: MeasuredMotion) -> MeasuredMotion:
+    """``measured`` if it moves this robot's coordinates, in their order (open chains)."""
+    if constrained.is_constrained(model):
+        raise ModelError("a measured motion drives open chains only: this robot has "
+                         "loop constraints (give it a trajectory section)",
+                         source=model.info.source)
+    if tuple(measured.names) != tuple(model.coordinates):
+        raise ModelError(f"the measured motion moves {', '.join(measured.names)}; the robot's "
+                         f"coordinates are {', '.join(model.coordinates)}",
+                         source=measured.source)
+    return measured
 
 
 def growth_rates(dynamics: InverseDynamics, times: np.ndarray) -> np.ndarray:
@@ -474,7 +517,7 @@ def table_times(duration: float) -> np.ndarray:
 
 def table(result: InverseResult) -> str:
     """Efforts at round times (computed at those exact times)."""
-    times = table_times(result.duration)
+    times = result.t[0] + table_times(result.duration)
     tau = result.dynamics.efforts(times)[3]
     heads = ["t (s)"] + [f"{a.name} ({unit_label(a.unit)})" for a in result.robot.actuators]
     width = max(12, *(len(h) for h in heads))
@@ -485,35 +528,75 @@ def table(result: InverseResult) -> str:
     return "\n".join(lines)
 
 
-def effort_limit(actuator) -> float | None:
-    """The largest |effort| the actuator's joint allows, where the robot says."""
-    for name in ("effort_limit", "limit", "max_effort"):
-        value = getattr(actuator, name, None)
-        if isinstance(value, (int, float)) and value > 0:
-            return float(value)
-        value = getattr(value, "effort", None)
-        if isinstance(value, (int, float)) and value > 0:
-            return float(value)
-    return None
+@dataclass(frozen=True)
+class Sizing:
+    """One actuator's figures over the motion, on the output grid:
+
+        peak        tau(t_peak), the effort of largest |tau|
+        rms         sqrt(integral of tau^2 dt / T), trapezoidal (what heats a motor)
+        peak_rate   max |w|, w = (B^T dq)_a the speed of the actuator's joint (rad/s or
+                    m/s): tau_a w is the power it delivers, sum_a tau_a w_a = Q . dq
+        peak_power  max |tau w|, W (mechanical, at the joint)
+
+    ``limit``: the file's |effort| bound of its joint, if any.  Open chains only
+    have ``peak_rate`` and ``peak_power`` (None for a closed chain)."""
+    name: str
+    unit: str
+    peak: float
+    t_peak: float
+    rms: float
+    peak_rate: float | None
+    peak_power: float | None
+    limit: float | None
+
+    @property
+    def rate_unit(self) -> str:
+        return "rad/s" if self.unit == "N*m" else "m/s"
+
+    @property
+    def share(self) -> float | None:
+        """|peak| / limit."""
+        return None if self.limit is None else abs(self.peak) / self.limit
 
 
-def peaks(result: InverseResult) -> str:
-    """One line per actuator: its peak |effort| over the motion (on the output grid),
-    when, and the share of its limit where the robot gives one."""
-    lines = []
+def sizing(result: InverseResult) -> list[Sizing]:
+    """Peak, RMS, peak rate and peak mechanical power of every actuator."""
+    t, tau = result.t, result.efforts
+    span = float(t[-1] - t[0])
+    squares = tau ** 2
+    rms = (np.sqrt(np.diff(t) @ (squares[1:] + squares[:-1]) / (2 * span)) if span > 0
+           else np.abs(tau[0]))
+    rates = getattr(result, "rates", None)
+    out = []
     for k, a in enumerate(result.robot.actuators):
-        values = result.efforts[:, k]
-        j = int(np.argmax(np.abs(values)))
-        unit = unit_label(a.unit)
-        line = (f"peak {a.name}: {values[j] + 0.0:+.6g} {unit} at t = "
-                f"{round(float(result.t[j]), 9) + 0.0:g} s")
-        limit = effort_limit(a)
-        if limit is not None:
-            share = abs(values[j]) / limit
-            line += (f" (limit {limit:g} {unit}: {100 * share:.0f}%"
-                     f"{', EXCEEDED' if share > 1 else ''})")
-        lines.append(line)
-    return "\n".join(lines)
+        j = int(np.argmax(np.abs(tau[:, k])))
+        rate = power = None
+        if rates is not None:
+            rate = float(np.abs(rates[:, k]).max())
+            power = float(np.abs(tau[:, k] * rates[:, k]).max())
+        out.append(Sizing(a.name, a.unit, float(tau[j, k]) + 0.0,
+                          round(float(t[j]), 9) + 0.0, float(rms[k]), rate, power,
+                          a.effort_limit))
+    return out
+
+
+def sizing_table(result: InverseResult) -> str:
+    """The actuators' sizing table: peak effort (and when), RMS effort, peak rate,
+    peak mechanical power, and the share of the joint's effort limit where the
+    robot gives one."""
+    from ..output.tables import render
+
+    heads = ["actuator", "peak effort", "at t (s)", "RMS effort", "peak rate",
+             "peak power (W)", "of its limit"]
+    rows = []
+    for s in sizing(result):
+        unit = unit_label(s.unit)
+        share = "-" if s.share is None else (f"{100 * s.share:.0f}% of {s.limit:g}"
+                                             + (" EXCEEDED" if s.share > 1 else ""))
+        rows.append([s.name, f"{s.peak:+.6g} {unit}", f"{s.t_peak:g}", f"{s.rms:.6g} {unit}",
+                     "-" if s.peak_rate is None else f"{s.peak_rate:.4g} {s.rate_unit}",
+                     "-" if s.peak_power is None else f"{s.peak_power:.4g}", share])
+    return render(heads, rows, min_width=8)
 
 
 def roundtrip_line(result: InverseResult) -> str:
@@ -525,11 +608,8 @@ def roundtrip_line(result: InverseResult) -> str:
         how = (f"round trip: one run from the start state over {result.duration:g} s "
                f"(open-loop growth rate up to {trip.growth_rate:.3g} 1/s)")
     else:
-        how = (f"round trip: the open-loop motion is unstable (growth rate up to "
-               f"{trip.growth_rate:.3g} 1/s at t = {trip.growth_time:g} s, a deviation grows "
-               f"~1e{trip.growth / math.log(10):.0f}-fold over {result.duration:g} s), "
-               f"so it runs in {trip.segments} segments of "
-               f"{trip.segment:.3g} s, each from the prescribed state")
+        how = (f"round trip: {trip.segments} pieces of {trip.segment:.3g} s, each from the "
+               "prescribed motion (without feedback the arm drifts off it; see inverse.json)")
     unit = next(c.unit for c in result.robot.coordinates if c.name == trip.coordinate)
     verdict = "ok" if trip.passed else "FAILED"
     return (f"{how}\nround trip: largest tracking error {trip.max_error:.3g} {unit} "
@@ -559,27 +639,23 @@ def write(result: InverseResult, out: Path, plot: bool = True, plot_format: str 
 
 
 def plot_title(result: InverseResult) -> str:
-    """Robot, motion, formulation and the round trip's method, error and tolerance."""
-    title = (f"{result.robot.name}: inverse dynamics, {result.kind} motion over "
-             f"{result.duration:g} s, {result.formulation}")
-    trip = result.roundtrip
-    if trip is not None:
-        unit = next((c.unit for c in result.robot.coordinates if c.name == trip.coordinate), "")
-        title += (f"\nround trip {trip.method} rtol {trip.rtol:g}: error {trip.max_error:.2g} "
-                  f"{unit} (tolerance {trip.tolerance:g}, {'ok' if trip.passed else 'FAILED'})")
-    return title
+    """The robot and the command (how it was computed is in inverse.json)."""
+    return f"{result.robot.name}: inverse"
 
 
 def summary(result: InverseResult) -> dict:
     """Key figures (``inverse.json``)."""
     efforts = {}
-    for k, a in enumerate(result.robot.actuators):
+    for k, (a, size) in enumerate(zip(result.robot.actuators, sizing(result))):
         values = result.efforts[:, k]
         low, high = int(np.argmin(values)), int(np.argmax(values))
         efforts[a.name] = {"unit": a.unit, "min": float(values[low]),
                            "t_min": float(result.t[low]), "max": float(values[high]),
                            "t_max": float(result.t[high]), "start": float(values[0]),
-                           "end": float(values[-1])}
+                           "end": float(values[-1]), "peak": size.peak,
+                           "t_peak": size.t_peak, "rms": size.rms,
+                           "peak_rate": size.peak_rate, "rate_unit": size.rate_unit,
+                           "peak_power_W": size.peak_power, "limit": size.limit}
     trip = result.roundtrip
     roundtrip = None if trip is None else {
         "passed": trip.passed, "max_error": trip.max_error, "coordinate": trip.coordinate,
@@ -589,6 +665,7 @@ def summary(result: InverseResult) -> dict:
         "segments": trip.segments, "segment": trip.segment, "growth_rate": trip.growth_rate,
         "growth_time": trip.growth_time, "growth_log10": trip.growth / math.log(10)}
     return {"robot": result.robot.name, "formulation": result.formulation,
+            "evaluator": result.evaluator,
             "trajectory": result.kind, "duration": result.duration, "dt": result.step,
             "points": len(result.t),
             "points_per_second": (len(result.t) / result.timings["efforts"]
@@ -596,9 +673,21 @@ def summary(result: InverseResult) -> dict:
             "efforts": efforts, "roundtrip": roundtrip,
             "limits": limits.summary(result.robot, result.limits),
             "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)},
+            **_measured_summary(result.dynamics.motion),
             **({} if result.constraints is None else
                {"actuation": result.note or "unique",
                 "multipliers": result.constraints.summary()["constraints"]["multipliers"]})}
+
+
+def _measured_summary(motion) -> dict:
+    """Where a measured motion came from and how its derivatives were obtained."""
+    if not isinstance(motion, MeasuredMotion):
+        return {}
+    how = motion.differentiator
+    return {"measured": {"file": motion.source, "samples": len(motion.t),
+                         "given": list(motion.given), "differentiated": list(motion.differentiated),
+                         "differentiator": {"method": "Savitzky-Golay", "window": how.window,
+                                            "order": how.order}}}
 
 
 def _panels(result: InverseResult, rates: bool = False):
@@ -615,7 +704,8 @@ def _panels(result: InverseResult, rates: bool = False):
                       for i, c in enumerate(result.robot.coordinates) if c.unit == unit]
             for start in range(0, len(series), 6):      # at most 6 lines an axis
                 panels.append((f"prescribed {prefix}q ({label}{per})", series[start:start + 6]))
-    for k, a in enumerate(result.robot.actuators):        # one panel per effort, as in
-        panels.append((f"{a.name} ({unit_label(a.unit)})",  # the chapter's figures
-                       [(a.name, result.efforts[:, k])]))
-    return panels
+    from ..output.plots import effort_panels       # one panel per effort, as in the
+                                                   # chapter's figures, with its limit
+    return panels + effort_panels([(a.name, a.unit) for a in result.robot.actuators],
+                                  result.efforts, one_each=True,
+                                  limits=[a.effort_limit for a in result.robot.actuators])

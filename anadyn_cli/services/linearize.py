@@ -555,7 +555,7 @@ def summary(result: Linearization) -> dict:
     p = result.point
     names = result.state[:len(p.q)]
     return {
-        "robot": result.robot, "formulation": result.formulation,
+        "robot": result.robot, "formulation": result.formulation, "evaluator": "closed-form",
         "state": result.state, "inputs": result.inputs, "units": result.units,
         "x0": [*map(float, p.q), *map(float, p.dq)], "u0": list(map(float, p.tau)),
         "operating_point": {

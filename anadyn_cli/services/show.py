@@ -8,7 +8,13 @@ Animation: at most MAX_FRAMES frames, evenly spaced over the run, played in
 real time when that stays between MIN_FRAME_MS per frame and MAX_PLAYBACK s
 in all (faster otherwise, and the title says how much faster); the time is
 in the title of every frame.  animate.gif is always written (Pillow, which
-Matplotlib brings); animate.mp4 too when ``ffmpeg`` is on the PATH.
+Matplotlib brings); animate.mp4 too when ``ffmpeg`` is on the PATH.  Frames
+are 1280 x 720 pixels by default, the smallest text 9 points at 100 dpi (12
+pixels).
+
+Views that carry information: a robot whose every drawn point stays in one
+world plane, at its initial pose and at PLANAR_SAMPLES random poses, is
+drawn in that plane alone (``plane_normal``).
 """
 from __future__ import annotations
 
@@ -33,6 +39,10 @@ from .. import files as output
 MAX_FRAMES = 150
 MIN_FRAME_MS = 40          # 25 frames per second at most
 MAX_PLAYBACK = 20.0        # s: longer runs play faster than real time
+PLANAR_SAMPLES = 8         # random poses that must stay in the plane of a planar robot
+FRAME_SIZE = (12.8, 7.2)   # inches of an animation frame, at FRAME_DPI
+FRAME_DPI = 100
+FRAME_FONT = 10            # points, the frames' axis labels
 DEGREE_SUFFIXES = ("deg", "°")
 
 
@@ -84,6 +94,24 @@ def pose_text(skeleton: Skeleton, q) -> str:
     return ", ".join(parts)
 
 
+def plane_normal(frames: Frames) -> int | None:
+    """The world axis (0, 1, 2) along which no drawn point of the robot ever moves,
+    over the initial pose and PLANAR_SAMPLES random ones (angles in -pi..pi,
+    lengths within 0.5 m of the initial value): the robot is planar, in the plane
+    across that axis.  None for a robot that moves in 3-D."""
+    sk = frames.skeleton
+    rng = np.random.default_rng(0)
+    initial = np.array(sk.initial, dtype=float)
+    spread = np.where(np.array(sk.units) == "rad", np.pi, 0.5)
+    q = np.vstack([initial, initial + rng.uniform(-1, 1, (PLANAR_SAMPLES, len(initial)))
+                   * spread])
+    pts = drawing.points(frames(q))
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    extent = np.ptp(pts, axis=0)
+    flat = [k for k in range(3) if extent[k] <= 1e-9 * max(1.0, extent.max())]
+    return flat[0] if len(flat) == 1 else None
+
+
 @dataclass
 class Drawing:
     skeleton: Skeleton
@@ -91,20 +119,23 @@ class Drawing:
     pose: Poses
     initial: bool                        # the file's initial pose
     timings: dict = field(default_factory=dict)
+    normal: int | None = None            # a planar robot: the world axis across its plane
 
     def title(self) -> str:
         where = "initial pose" if self.initial else "pose"
         return f"{self.skeleton.name}, {where}: {pose_text(self.skeleton, self.q)}"
 
     def figure(self, labels: bool = True):
-        """The drawing as a Matplotlib Figure (the global backend is not touched)."""
-        return drawing.robot_figure(self.skeleton, self.pose, self.title(), labels=labels)
+        """The drawing as a Matplotlib Figure (the global backend is not touched),
+        titled with the robot and the command (the pose is in show.json)."""
+        return drawing.robot_figure(self.skeleton, self.pose, f"{self.skeleton.name}: show",
+                                    labels=labels, normal=self.normal)
 
 
 def draw(frames: Frames, at=()) -> Drawing:
     """The robot at its initial pose with ``at`` put in."""
     q = parse_at(frames.skeleton, at)
-    return Drawing(frames.skeleton, q, frames(q), not at)
+    return Drawing(frames.skeleton, q, frames(q), not at, normal=plane_normal(frames))
 
 
 def points(d: Drawing) -> dict:
@@ -141,6 +172,37 @@ def write_drawing(d: Drawing, out: Path, plot_format: str = "png") -> list[Path]
 
 
 # -- animation -----------------------------------------------------------------------
+def read_run(path: Path, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray]:
+    """(t, q rows x n) from a run's CSV (simulate.csv, inverse.csv: a ``t`` column and
+    one per coordinate of ``skeleton``); ModelError naming the file otherwise."""
+    import csv
+
+    from ..errors import ModelError
+
+    path = Path(path)
+    try:
+        with open(path, newline="", encoding="utf-8") as handle:
+            rows = list(csv.reader(handle))
+    except (OSError, UnicodeDecodeError, csv.Error) as err:
+        raise ModelError(f"cannot read it: {err}", source=str(path)) from None
+    header = rows[0] if rows else []
+    wanted = ["t", *skeleton.coordinates]
+    missing = [name for name in wanted if name not in header]
+    if missing:
+        raise ModelError(f"no column {missing[0]!r}: a simulate.csv or inverse.csv of "
+                         f"{skeleton.name} has {', '.join(wanted)}", source=str(path))
+    columns = [header.index(name) for name in wanted]
+    try:
+        data = np.array([[float(row[k]) for k in columns] for row in rows[1:]])
+    except (ValueError, IndexError):
+        raise ModelError("a row that is not numbers in every column", source=str(path)) \
+            from None
+    if len(data) < 2 or not np.isfinite(data).all() or (np.diff(data[:, 0]) <= 0).any():
+        raise ModelError("expected two or more rows of finite numbers with t increasing",
+                         source=str(path))
+    return data[:, 0], data[:, 1:]
+
+
 @dataclass
 class Plan:
     """Which rows become frames and how fast they play."""
@@ -177,16 +239,20 @@ class Animation:
     images: list                      # uint8 arrays, rows x columns x 3
     title: str
     timings: dict = field(default_factory=dict)
+    computation: dict = field(default_factory=dict)   # the simulation's (numeric.build)
 
 
 def animate(frames: Frames, t: np.ndarray, q: np.ndarray, title: str,
-            max_frames: int = MAX_FRAMES, dpi: int = 80) -> Animation:
-    """Frames of the robot moving through ``q`` (rows x n) at times ``t``."""
+            max_frames: int = MAX_FRAMES, size=FRAME_SIZE, font: float = FRAME_FONT,
+            dpi: int = FRAME_DPI) -> Animation:
+    """Frames of the robot moving through ``q`` (rows x n) at times ``t``: ``size``
+    in inches at ``dpi``, ``font`` the axis labels' size in points."""
     start = time.perf_counter()
     chosen = plan(t, max_frames)
     poses = frames(q[chosen.rows])
     box = drawing.Frame.around(poses)
-    movie = drawing.Animation(frames.skeleton, box, title, dpi=dpi)
+    movie = drawing.Animation(frames.skeleton, box, title, size=size, dpi=dpi,
+                              normal=plane_normal(frames), font=font)
     images = []
     with progress.task(f"drawing {len(chosen.rows)} frames of {frames.skeleton.name}",
                        total=len(chosen.rows)) as step:
@@ -198,13 +264,14 @@ def animate(frames: Frames, t: np.ndarray, q: np.ndarray, title: str,
 
 
 def gif_bytes(animation: Animation) -> bytes:
-    """The frames as a looping GIF (one palette for all frames: no flicker)."""
+    """The frames as a looping GIF (one palette for all frames, from the last one,
+    which has every colour, the whole tip trace included: no flicker)."""
     from PIL import Image
 
-    first = Image.fromarray(animation.images[0]).quantize(colors=128,
+    last = Image.fromarray(animation.images[-1]).quantize(colors=128,
                                                           method=Image.Quantize.MEDIANCUT)
-    images = [first] + [Image.fromarray(a).quantize(palette=first, dither=Image.Dither.NONE)
-                        for a in animation.images[1:]]
+    images = [Image.fromarray(a).quantize(palette=last, dither=Image.Dither.NONE)
+              for a in animation.images]
     buffer = io.BytesIO()
     images[0].save(buffer, format="GIF", save_all=True, append_images=images[1:],
                    duration=animation.plan.frame_ms, loop=0, disposal=1)
@@ -265,7 +332,8 @@ def write_animation(animation: Animation, out: Path, mp4: bool = True) -> tuple[
     written.append(out / "animate.json")
     height, width = animation.images[0].shape[:2]
     output.write_json(written[-1], {
-        "robot": animation.skeleton.name, "frames": len(animation.images),
+        "robot": animation.skeleton.name, **animation.computation,
+        "frames": len(animation.images),
         "frame_ms": animation.plan.frame_ms, "speed": animation.plan.speed,
         "t_first": float(animation.times[0]), "t_last": float(animation.times[-1]),
         "width": width, "height": height, "mp4": mp4_note, "timings": animation.timings})

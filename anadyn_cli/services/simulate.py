@@ -19,12 +19,13 @@ from ..numeric import constrained, integrators
 from ..numeric.model import NumericModel
 from ..numeric.settings import output_grid, resolve
 from .. import files as output
+from ..output.notebook import Displayed
 from ..output import plots, tables
 from ..numeric import limits
 
 
 @dataclass
-class SimulationResult:
+class SimulationResult(Displayed):
     """A run; rows are times: ``t`` (N,), ``x`` (N, 2n) = [q, dq], ``efforts`` (N, m)."""
     robot: RobotInfo
     settings: Simulation
@@ -32,7 +33,8 @@ class SimulationResult:
     efforts: np.ndarray                   # N x m
     timings: dict = field(default_factory=dict)
     estimated_error: float | None = None  # integrators.estimate_error, when asked for
-    formulation: str = ""                 # kane or lagrange (named in the plot's title)
+    formulation: str | None = None        # of the closed forms; None: recursive evaluator
+    evaluator: str = ""                   # recursive or closed-form (numeric.build)
     constraints: "constrained.ConstraintRun | None" = None   # drift, multipliers (closed chains)
     limits: list = field(default_factory=list)   # limits.Exceeded: bounds of the file passed
     code: str = ""                        # what computed the RHS (native C, generated Python)
@@ -44,6 +46,9 @@ class SimulationResult:
     @property
     def x(self) -> np.ndarray:
         return self.solution.x
+
+    def table(self) -> tuple[list[str], list[np.ndarray]]:
+        return columns(self)          # the CSV's columns (also shown in notebooks)
 
     def to_csv(self, path) -> Path:
         """Write simulate.csv's columns to ``path`` (whole or not at all)."""
@@ -78,7 +83,7 @@ def simulate(model: NumericModel, method: str | None = None, rtol: float | None 
     efforts = model.efforts(solution.t, q, dq) if m else np.zeros((0, len(solution.t)))
     efforts = np.broadcast_to(efforts, (m, len(solution.t))).T
     result = SimulationResult(model.info, settings, solution, np.array(efforts), timings,
-                              formulation=model.formulation,
+                              formulation=model.formulation, evaluator=model.evaluator,
                               code=getattr(model, "native_note", "generated Python"))
     result.limits = limits.check(model.info, solution.t, solution.x[:, :n], solution.x[:, n:],
                                  result.efforts)
@@ -139,6 +144,7 @@ def summary(result: SimulationResult) -> dict:
             "jacobian_calls": solution.jacobian_calls, "steps": solution.steps,
             "rtol": result.settings.rtol, "atol": result.settings.atol,
             "t_end": float(result.t[-1]), "rows": len(result.t), "final": final,
+            "formulation": result.formulation, "evaluator": result.evaluator,
             "code": result.code,
             "timings": {k: v for k, v in result.timings.items() if isinstance(v, float)},
             **({} if result.estimated_error is None
@@ -148,12 +154,8 @@ def summary(result: SimulationResult) -> dict:
 
 
 def plot_title(result: SimulationResult) -> str:
-    """Robot, what was integrated, the method and its tolerances."""
-    solution, settings = result.solution, result.settings
-    method = (f"auto -> {solution.method}" if solution.reason else solution.method)
-    formulation = f"{result.formulation}, " if result.formulation else ""
-    return (f"{result.robot.name}: direct dynamics, {formulation}{method}, "
-            f"rtol {settings.rtol:g}, atol {settings.atol:g}")
+    """The robot and the command (the method and tolerances are in simulate.json)."""
+    return f"{result.robot.name}: simulate"
 
 
 def _panels(result: SimulationResult, rates: bool = False) -> list:

@@ -7,8 +7,9 @@ writes to ``<command>.json``:
     description: what this batch is for            # optional
     timeout: 600                                   # optional, s per job (default: none)
     jobs:
-      - command: inverse                           # simulate, inverse, compare, accuracy, check
-        robot: ../robots/rr.yaml                   # relative to this file's folder
+      - command: inverse                           # any command that takes a robot
+        robot: ../robots/rr.yaml                   # relative to this file's folder, or a
+                                                   # library name (ur5)
         name: rr                                   # optional; default: the robot file's stem
         options: [--no-plot, --dt, 0.05]           # or a mapping {no-plot: true, dt: 0.05}
         expect:
@@ -23,15 +24,23 @@ writes to ``<command>.json``:
 Keys under max/min/equal are dotted paths into ``<command>.json``
 (``rows.0.max_error`` indexes a list); a key that is missing there is a
 miss that names it.  A mapping of options becomes ``--key value``
-(``--key`` for true, ``--no-key`` for false); ``--out`` is set by the
-batch: ``OUT/<command>/<name>/``, which also receives ``stdout.txt`` and
-``stderr.txt``.
+(``--key`` for true, ``--no-key`` for false); the job's folder is set by
+the batch: ``OUT/<command>/<name>/`` (``--out``; ``import`` writes
+``<name>.yaml`` there, ``equations`` prints only), which also receives
+``stdout.txt`` and ``stderr.txt``.
 
-Each job runs ``python -m anadyn_cli COMMAND ROBOT OPTIONS --out FOLDER``;
-``run`` starts up to ``workers`` of them at a time (threads waiting on
-processes) and returns every result; ``write`` gives summary.csv,
-summary.json and junit.xml; ``check`` raises ``CheckFailed`` naming each job
-that missed its expectation.
+Each job runs ``python -m anadyn_cli COMMAND OPTIONS --out FOLDER -- ROBOT``
+(after ``--`` a robot named like an option is still a robot) in a process
+group of its own; ``run`` starts up to ``workers`` of them at a time (threads
+waiting on processes) and returns every result.  A job over its timeout is
+killed with its whole group (its own workers too).  An interruption of the
+batch (``Interrupted``, KeyboardInterrupt) stops every running job's group
+(SIGTERM, then SIGKILL after ``STOP_GRACE`` s) and writes nothing more.
+``write`` gives summary.csv, summary.json and junit.xml (a miss is a
+``<failure>``, a job that timed out or could not start an ``<error>``, each
+with the job's whole output, cut in the middle beyond ``OUTPUT_KEPT``
+characters); ``raise_if_failed`` raises ``CheckFailed`` naming each job that
+missed its expectation.
 """
 from __future__ import annotations
 
@@ -41,23 +50,32 @@ import json
 import math
 import os
 import re
+import signal
 import subprocess
 import sys
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
+from . import executors
 from .. import files as output
-from ..errors import CheckFailed, ModelError
+from ..errors import CheckFailed
 
-COMMANDS = ("simulate", "inverse", "compare", "accuracy", "check")
+#: what a job may run: every command that takes a robot
+COMMANDS = ("simulate", "inverse", "compare", "accuracy", "check", "sweep", "linearize",
+            "export", "equations", "show", "animate", "view", "import")
+#: where a command writes its results: --out FOLDER, except these
+OUTPUT_OPTION = {"equations": None, "import": "--output"}
 TOP_KEYS = ("description", "timeout", "jobs")
 JOB_KEYS = ("command", "robot", "name", "options", "expect", "must_fail", "timeout")
 EXPECT_KEYS = ("exit_code", "max", "min", "equal")
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}\Z")
-TAIL_LINES = 20
+MAX_TIMEOUT = 7 * 86400.0            # s: a week (the system's waits end at ~24 days)
+OUTPUT_KEPT = 200_000                # characters of a job's stdout (and stderr) in the reports
+STOP_GRACE = 1.0                     # s a stopped job's group gets after SIGTERM, then SIGKILL
 
 
 @dataclass(frozen=True)
@@ -93,8 +111,12 @@ class Job:
         return Path(out) / self.command / self.name
 
     def argv(self, out: Path) -> list[str]:
-        return [sys.executable, "-m", "anadyn_cli", self.command, self.robot,
-                *self.options, "--out", str(self.folder(out))]
+        flag = OUTPUT_OPTION.get(self.command, "--out")
+        where = ([] if flag is None else
+                 [flag, str(self.folder(out) / f"{self.name}.yaml")] if flag == "--output" else
+                 [flag, str(self.folder(out))])
+        return [sys.executable, "-m", "anadyn_cli", self.command, *self.options, *where,
+                "--", self.robot]
 
 
 @dataclass(frozen=True)
@@ -113,6 +135,7 @@ class JobResult:
     stderr: str = ""
     figures: dict = field(default_factory=dict)  # expectation path -> value found
     failures: list[str] = field(default_factory=list)
+    timed_out: bool = False
 
     @property
     def ok(self) -> bool:
@@ -121,6 +144,11 @@ class JobResult:
     @property
     def status(self) -> str:
         return "ok" if self.ok else "FAIL"
+
+    @property
+    def error(self) -> bool:
+        """Did not finish (timed out, or could not start): an error, not a miss."""
+        return self.exit_code is None
 
 
 @dataclass
@@ -141,7 +169,8 @@ class BatchResult:
 # ----------------------------------------------------------------------------
 def load_batch(path: str | Path) -> Batch:
     """Read and validate a batch file; ModelError (exit 2) naming file, line and key path."""
-    from ..model.yamlsource import load, read_text
+    from ..model.yamlschema import load
+    from ..model.yamlsource import read_text
 
     text, source = read_text(path)
     data, lines = load(text, source)
@@ -150,7 +179,7 @@ def load_batch(path: str | Path) -> Batch:
     root = Cursor(data, "", source, lines)
     top = root.mapping(TOP_KEYS, required=("jobs",))
     description = top["description"].text() if "description" in top else ""
-    timeout = _positive(top["timeout"]) if "timeout" in top else None
+    timeout = _seconds(top["timeout"]) if "timeout" in top else None
     items = top["jobs"].sequence()
     if not items:
         raise top["jobs"].error("expected at least one job")
@@ -170,18 +199,18 @@ def load_batch(path: str | Path) -> Batch:
 def _job(cursor, folder: Path, timeout: float | None) -> Job:
     keys = cursor.mapping(JOB_KEYS, required=("command", "robot"))
     command = keys["command"].choice(COMMANDS)
-    given = keys["robot"].text()
-    robot = Path(os.path.normpath(folder / given))
-    if not robot.is_file():
-        raise keys["robot"].error(f"no such file {str(robot)!r} (robot paths are relative "
-                                  f"to the batch file's folder)")
+    robot = _robot(keys["robot"], folder)
     if "name" in keys:
         name = keys["name"].value
         if not isinstance(name, str) or not NAME.match(name):
             raise keys["name"].error("a job name is a letter or digit followed by up to 63 "
                                      f"letters, digits, '_', '.' or '-', got {name!r}")
     else:
-        name = robot.stem
+        name = re.sub(r"[^A-Za-z0-9_.-]", "_", robot.stem).lstrip("._-")[:64]
+        if not NAME.match(name):
+            raise keys["robot"].error(f"the file name {robot.name!r} makes no job name; "
+                                      "give the job a name (a letter or digit followed by "
+                                      "letters, digits, '_', '.' or '-')")
     options = _options(keys["options"]) if "options" in keys else ()
     expect = _expectation(keys["expect"]) if "expect" in keys else Expectation()
     if "must_fail" in keys:
@@ -197,9 +226,25 @@ def _job(cursor, folder: Path, timeout: float | None) -> Job:
             raise cursor_fail.error(f"must be an exit code from 1 to 255 or true (any "
                                     f"non-zero code), got {value!r}")
         expect = Expectation(code, expect.max, expect.min, expect.equal)
-    job_timeout = _positive(keys["timeout"]) if "timeout" in keys else timeout
+    job_timeout = _seconds(keys["timeout"]) if "timeout" in keys else timeout
     return Job(command, str(robot), name, options, expect, job_timeout,
                cursor.lines.get(cursor.path))
+
+
+def _robot(cursor, folder: Path) -> Path:
+    """The robot file of a job: relative to the batch file's folder, else (a bare name)
+    the library's robot of that name; always an absolute path."""
+    from ..model import library
+
+    given = cursor.text()
+    robot = Path(os.path.abspath(folder / given))
+    if robot.is_file():
+        return robot
+    found = library.find(given) if len(Path(given).parts) == 1 else None
+    if found is not None:
+        return Path(os.path.abspath(found))
+    raise cursor.error(f"no such file {str(robot)!r} (robot paths are relative to the batch "
+                       f"file's folder){library.missing_hint(given)}")
 
 
 def _options(cursor) -> tuple[str, ...]:
@@ -222,9 +267,11 @@ def _options(cursor) -> tuple[str, ...]:
                 raise item.error("each option is text or a number, e.g. [--dt, 0.05]")
             result.append(str(item.value))
     for word in result:
-        if word == "--out" or word.startswith("--out="):
-            raise cursor.error("--out is set by the batch (OUT/<command>/<name>/); "
-                               "leave it out")
+        if word in ("--out", "--output", "-o") or word.startswith(("--out=", "--output=")):
+            raise cursor.error(f"{word.partition('=')[0]} is set by the batch "
+                               "(OUT/<command>/<name>/); leave it out")
+        if word == "--":
+            raise cursor.error("'--' is set by the batch (before the robot); leave it out")
     return tuple(result)
 
 
@@ -265,45 +312,95 @@ def _number(cursor) -> float:
     return float(value)
 
 
-def _positive(cursor) -> float:
+def _seconds(cursor) -> float:
+    """A job's timeout: more than 0 s, at most ``MAX_TIMEOUT``."""
     value = _number(cursor)
-    if not (math.isfinite(value) and value > 0):
-        raise cursor.error(f"must be a positive number of seconds, got {cursor.value!r}")
+    if not 0 < value <= MAX_TIMEOUT:
+        raise cursor.error(f"must be a number of seconds more than 0 and at most "
+                           f"{MAX_TIMEOUT:g} (a week), got {value:g}")
     return value
 
 
 # ----------------------------------------------------------------------------
 # running
 # ----------------------------------------------------------------------------
-def run_job(job: Job, out: Path) -> JobResult:
-    """Run one job in its own process and judge it."""
+def run_job(job: Job, out: Path, running: "Running | None" = None) -> JobResult | None:
+    """Run one job in its own process group and judge it; None if ``running`` was stopped
+    meanwhile (nothing is written then)."""
+    running = Running() if running is None else running
     folder = output.prepare_dir(job.folder(out))
     figures_file = folder / f"{job.command}.json"
     before = _identity(figures_file)
     start = time.perf_counter()
     try:
-        done = subprocess.run(job.argv(out), capture_output=True, text=True,
-                              stdin=subprocess.DEVNULL, timeout=job.timeout,
-                              errors="replace")
-        code, stdout, stderr = done.returncode, done.stdout, done.stderr
-    except subprocess.TimeoutExpired as expired:
-        code = None
-        stdout = _text(expired.stdout)
-        stderr = _text(expired.stderr) + f"\nanadyn batch: timed out after {job.timeout:g} s"
+        code, stdout, stderr = running.run(job.argv(out), job.timeout)
+        timed_out = code is None
+        if timed_out:
+            stderr += f"\nanadyn batch: timed out after {job.timeout:g} s"
     except OSError as err:
-        code, stdout, stderr = None, "", f"anadyn batch: cannot start: {err}"
+        code, stdout, stderr, timed_out = None, "", f"anadyn batch: cannot start: {err}", False
+    if running.stopped:
+        return None
     wall = time.perf_counter() - start
-    result = JobResult(job, code, wall, stdout, stderr)
+    result = JobResult(job, code, wall, stdout, stderr, timed_out=timed_out)
     for name, text in (("stdout.txt", stdout), ("stderr.txt", stderr)):
         output.write_text(folder / name, text)
     judge(result, figures_file if _identity(figures_file) != before else None)
     return result
 
 
-def _text(data) -> str:
-    if data is None:
-        return ""
-    return data.decode("utf-8", "replace") if isinstance(data, bytes) else data
+class Running:
+    """The job processes running now; ``stop`` ends them all, each with its group."""
+
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.processes: set = set()
+        self.stopped = False
+
+    def run(self, argv: list[str], timeout: float | None) -> tuple[int | None, str, str]:
+        """(exit code, stdout, stderr) of ``argv``; the exit code is None when it ran over
+        ``timeout`` s (its process group is killed) or was stopped."""
+        with self.lock:
+            if self.stopped:
+                return None, "", ""
+            process = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                       stderr=subprocess.PIPE, text=True, errors="replace",
+                                       start_new_session=True)
+            self.processes.add(process)
+        try:
+            try:
+                stdout, stderr = process.communicate(timeout=timeout)
+                return process.returncode, stdout, stderr
+            except subprocess.TimeoutExpired:
+                _signal_group(process, signal.SIGKILL)
+                stdout, stderr = process.communicate()
+                return None, stdout, stderr
+        finally:
+            with self.lock:
+                self.processes.discard(process)
+
+    def stop(self) -> None:
+        """SIGTERM to every running job's group, SIGKILL ``STOP_GRACE`` s later to those
+        still there; later jobs do not start."""
+        with self.lock:
+            self.stopped = True
+            processes = list(self.processes)
+        for process in processes:
+            _signal_group(process, signal.SIGTERM)
+        deadline = time.monotonic() + STOP_GRACE
+        for process in processes:
+            try:
+                process.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                pass
+            _signal_group(process, signal.SIGKILL)     # its workers too, if it left any
+
+
+def _signal_group(process, signum: int) -> None:
+    try:
+        os.killpg(process.pid, signum)
+    except (ProcessLookupError, PermissionError):
+        pass
 
 
 def _identity(path: Path):
@@ -391,8 +488,16 @@ def last_line(text: str) -> str:
     return lines[-1] if lines else ""
 
 
-def tail(text: str, count: int = TAIL_LINES) -> str:
-    return "\n".join(text.rstrip("\n").splitlines()[-count:])
+def excerpt(text: str, kept: int = OUTPUT_KEPT) -> str:
+    """``text`` whole, or beyond ``kept`` characters its first and last lines around one
+    saying how much was left out between them (table headers and the final error stay)."""
+    text = text.rstrip("\n")
+    if len(text) <= kept:
+        return text
+    head, tail = text[: kept // 2], text[len(text) - kept // 2:]
+    head = head[: head.rfind("\n") + 1] or head          # whole lines, where there are any
+    tail = tail[tail.find("\n") + 1:] or tail
+    return f"{head}[... {len(text) - len(head) - len(tail)} characters left out ...]\n{tail}"
 
 
 def run(batch: Batch, out: Path, workers: int | None = None, on_start=None,
@@ -405,18 +510,19 @@ def run(batch: Batch, out: Path, workers: int | None = None, on_start=None,
     """
     if scheduler is not None:
         return run_on_cluster(batch, out, scheduler, on_start, on_done)
-    workers = (os.cpu_count() or 1) if workers is None else workers
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ModelError(f"--jobs must be 1 or more, got {workers}")
+    workers = executors.check_jobs(workers)
     out = output.prepare_dir(out)
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
     start = time.perf_counter()
     results: dict[int, JobResult] = {}
+    running = Running()
 
-    def task(index: int, job: Job) -> tuple[int, JobResult]:
+    def task(index: int, job: Job) -> tuple[int, JobResult | None]:
+        if running.stopped:
+            return index, None
         if on_start is not None:
             on_start(job)
-        return index, run_job(job, out)
+        return index, run_job(job, out, running)
 
     pool = ThreadPoolExecutor(max_workers=workers)
     try:
@@ -426,6 +532,9 @@ def run(batch: Batch, out: Path, workers: int | None = None, on_start=None,
             results[index] = result
             if on_done is not None:
                 on_done(result, len(results), len(batch.jobs))
+    except BaseException:                  # interrupted (or a job's folder refused): stop all
+        running.stop()
+        raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
     return BatchResult(batch, [results[i] for i in range(len(batch.jobs))], workers,
@@ -442,8 +551,6 @@ def run_on_cluster(batch: Batch, out: Path, scheduler, on_start=None,
     ``OUT/<command>/<name>/``, then judged as a local job is.  A job whose worker
     is lost reruns elsewhere; one that cannot run at all is a miss that says why.
     """
-    from . import executors
-
     out = output.prepare_dir(out)
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
     start = time.perf_counter()
@@ -470,7 +577,7 @@ def _no_setup(payload) -> None:
 
 def run_remote(state, piece) -> tuple:
     """On a worker: one job in a temporary folder; (exit code, wall, stdout, stderr,
-    {file name: bytes} of its result folder)."""
+    {file name: bytes} of its result folder, timed out)."""
     import tempfile
     from dataclasses import replace
 
@@ -487,7 +594,7 @@ def run_remote(state, piece) -> tuple:
     for name in ("stdout.txt", "stderr.txt"):
         files[name] = files.get(name, b"").decode("utf-8", "replace").replace(
             str(robot), job.robot).encode("utf-8")
-    return result.exit_code, result.wall, text[0], text[1], files
+    return result.exit_code, result.wall, text[0], text[1], files, result.timed_out
 
 
 def _collect(job: Job, value, out: Path) -> JobResult:
@@ -499,10 +606,10 @@ def _collect(job: Job, value, out: Path) -> JobResult:
         output.write_text(folder / "stderr.txt", result.stderr)
         judge(result, None)
         return result
-    code, wall, stdout, stderr, files = value
+    code, wall, stdout, stderr, files, timed_out = value
     for name, data in files.items():
         output.write_bytes(folder / name, data)
-    result = JobResult(job, code, wall, stdout, stderr)
+    result = JobResult(job, code, wall, stdout, stderr, timed_out=timed_out)
     figures = f"{job.command}.json"
     judge(result, folder / figures if figures in files else None)
     return result
@@ -555,7 +662,7 @@ def _job_dict(result: JobResult, out: Path) -> dict:
             "exit_code": result.exit_code, "expected_exit_code": job.expect.exit_code,
             "wall_s": result.wall, "figures": result.figures, "failures": result.failures,
             "folder": str(job.folder(out)), "argv": job.argv(out)[1:],
-            "stdout_tail": tail(result.stdout), "stderr_tail": tail(result.stderr)}
+            "stdout": excerpt(result.stdout), "stderr": excerpt(result.stderr)}
 
 
 def summary(result: BatchResult, out: Path) -> dict:
@@ -581,48 +688,63 @@ def csv_text(result: BatchResult, out: Path) -> str:
     return buffer.getvalue()
 
 
-_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+_NOT_XML = re.compile("[^\t\n\r\x20-\x7e\x85\xa0-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
 
 
 def _xml_text(text: str) -> str:
-    return _NOT_XML.sub("?", text)
+    """``text`` with what XML 1.0 forbids, or discourages (controls, noncharacters),
+    as ``?``: a control character in a job's output cannot break the report."""
+    return _NOT_XML.sub("?", str(text))
 
 
 def junit_text(result: BatchResult) -> str:
-    """One <testsuite>, one <testcase> per job (classname = command, name = job name)."""
+    """One <testsuite>, one <testcase> per job (classname = command, name = job name): a
+    miss is a <failure>, a job that did not finish (timed out, could not start) an
+    <error>; every text and attribute goes through ``_xml_text``."""
     import xml.etree.ElementTree as ET
 
-    suite = ET.Element("testsuite", {
-        "name": f"anadyn batch {result.batch.source}", "tests": str(len(result.results)),
-        "failures": str(len(result.failed)), "errors": "0", "skipped": "0",
-        "time": f"{result.wall:.3f}", "timestamp": result.started})
+    def element(parent, tag: str, text: str | None = None, **attributes):
+        node = (ET.Element(tag) if parent is None else ET.SubElement(parent, tag))
+        node.attrib.update({k: _xml_text(v) for k, v in attributes.items()})
+        if text is not None:
+            node.text = _xml_text(text)
+        return node
+
+    errors = [r for r in result.failed if r.error]
+    suite = element(None, "testsuite", name=f"anadyn batch {result.batch.source}",
+                    tests=str(len(result.results)),
+                    failures=str(len(result.failed) - len(errors)), errors=str(len(errors)),
+                    skipped="0", time=f"{result.wall:.3f}", timestamp=result.started)
     for r in result.results:
-        case = ET.SubElement(suite, "testcase", {"classname": r.job.command,
-                                                 "name": r.job.name, "time": f"{r.wall:.3f}"})
+        case = element(suite, "testcase", classname=r.job.command, name=r.job.name,
+                       time=f"{r.wall:.3f}")
         if r.failures:
-            failure = ET.SubElement(case, "failure", {"message": _xml_text(r.failures[0]),
-                                                      "type": "expectation"})
-            failure.text = _xml_text("\n".join(r.failures) + "\n\nstderr:\n"
-                                     + tail(r.stderr))
+            kind = (("error", "timeout" if r.timed_out else "not-run") if r.error
+                    else ("failure", "expectation"))
+            element(case, kind[0], "\n".join(r.failures) + "\n\nstderr:\n" + excerpt(r.stderr),
+                    message=r.failures[0], type=kind[1])
         if r.figures:
-            properties = ET.SubElement(case, "properties")
+            properties = element(case, "properties")
             for key, value in r.figures.items():
-                ET.SubElement(properties, "property", {"name": key,
-                                                       "value": _xml_text(_show(value))})
-        ET.SubElement(case, "system-out").text = _xml_text(tail(r.stdout))
+                element(properties, "property", name=key, value=_show(value))
+        element(case, "system-out", excerpt(r.stdout))
         if r.stderr.strip():
-            ET.SubElement(case, "system-err").text = _xml_text(tail(r.stderr))
+            element(case, "system-err", excerpt(r.stderr))
     ET.indent(suite)
     return ET.tostring(suite, encoding="unicode", xml_declaration=True) + "\n"
 
 
 def write(result: BatchResult, out: Path) -> list[Path]:
-    """summary.csv, summary.json and junit.xml in ``out``."""
+    """summary.csv, summary.json and junit.xml in ``out``, written with signals held."""
+    from .. import progress
+
     out = output.prepare_dir(out)
     written = [out / "summary.csv", out / "summary.json", out / "junit.xml"]
-    output.write_text(written[0], csv_text(result, out))
-    output.write_json(written[1], summary(result, out))
-    output.write_text(written[2], junit_text(result))
+    texts = (csv_text(result, out), summary(result, out), junit_text(result))
+    with progress.uninterrupted():        # the three of this batch, or those there before
+        output.write_text(written[0], texts[0])
+        output.write_json(written[1], texts[1])
+        output.write_text(written[2], texts[2])
     return written
 
 

@@ -14,6 +14,19 @@ process, never once per piece:
                         as a worker plugin; each worker thread builds its own
                         state on its first piece and keeps it
 
+Every wait on a Dask scheduler is bounded: connecting (TCP connect, Dask's
+handshake and the client's registration, all told) and each request must be
+answered within ``ANSWER_TIMEOUT`` s; while no result comes, the scheduler is
+asked every ``ALIVE_EVERY`` s whether it still answers and has workers (none
+for ``NO_WORKERS_TIMEOUT`` s ends the run).  Each of these is a ``ModelError``
+(one line, exit 2) naming the address.
+
+An interruption (any BaseException while waiting: ``progress.Interrupted``
+from SIGINT or SIGTERM, KeyboardInterrupt) stops the local worker processes
+at once (SIGTERM, SIGKILL ``STOP_GRACE`` s later; they ignore SIGINT
+themselves, since a terminal's Ctrl-C reaches the whole process group and the
+main process ends them) and cancels the pieces on Dask.
+
 A piece's result depends only on the payload and the piece, so the executors
 give identical results.  Dask reruns the pieces of a worker that is lost
 (its scheduler's ``allowed-failures``, default 3) and retries a piece that
@@ -37,7 +50,10 @@ from ..errors import ModelError
 
 ENVIRONMENT = "ANADYN_SCHEDULER"     # a Dask scheduler address, when --scheduler is not given
 RETRIES = 2                          # Dask: reruns of a piece that raised
-CONNECT_TIMEOUT = 10.0               # s to reach a scheduler
+ANSWER_TIMEOUT = 10.0                # s a scheduler has to connect, or to answer a request
+ALIVE_EVERY = 30.0                   # s without a result before asking if the scheduler lives
+NO_WORKERS_TIMEOUT = 120.0           # s a run waits for a cluster that has no workers
+STOP_GRACE = 1.0                     # s local workers get to end on SIGTERM, then SIGKILL
 STATES_KEPT = 4                      # worker-side states kept per thread (LRU)
 
 _PAYLOADS: dict[str, tuple[Callable, Any]] = {}      # key -> (setup, payload), per process
@@ -136,6 +152,16 @@ def _install(key: str, setup: Callable, payload: Any) -> None:
     _PAYLOADS[key] = (setup, payload)
 
 
+def _install_in_worker(key: str, setup: Callable, payload: Any) -> None:
+    """A local worker process's start: its payload, and SIGINT ignored (the main
+    process stops its workers; a terminal's Ctrl-C reaches the whole group)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _install(key, setup, payload)
+
+
 def run_piece(key: str, work: Callable, piece: Any) -> Any:
     """One piece, on a worker that has the payload ``key``."""
     return work(_state(key), piece)
@@ -168,7 +194,7 @@ def _context():
 def _processes(work: Work, pieces: list, workers: int, on_done) -> Run:
     results: list = [None] * len(pieces)
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=_context(),
-                               initializer=_install,
+                               initializer=_install_in_worker,
                                initargs=(work.key, work.setup, work.payload))
     try:
         pending = {pool.submit(run_piece, work.key, work.work, piece): i
@@ -183,9 +209,25 @@ def _processes(work: Work, pieces: list, workers: int, on_done) -> Run:
                     results[index] = err      # (BrokenProcessPool): its pieces are lost
                 if on_done is not None:
                     on_done(index, results[index])
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    except BaseException:                     # interrupted: stop the workers now
+        _stop(list((getattr(pool, "_processes", None) or {}).values()))
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
     return Run(results, "local processes", workers)
+
+
+def _stop(processes: list) -> None:
+    """SIGTERM to each worker process, SIGKILL to those alive ``STOP_GRACE`` s later."""
+    for process in processes:
+        process.terminate()
+    deadline = time.monotonic() + STOP_GRACE
+    for process in processes:
+        process.join(max(0.0, deadline - time.monotonic()))
+    for process in processes:
+        if process.is_alive():
+            process.kill()
+            process.join(STOP_GRACE)
 
 
 # ----------------------------------------------------------------------------
@@ -220,57 +262,133 @@ def _plugin_class():
 
 
 def workers(client) -> int:
-    """How many workers the Dask cluster of ``client`` has now."""
-    info = (client.scheduler_info(n_workers=-1) if _takes(client.scheduler_info, "n_workers")
-            else client.scheduler_info())
-    return len(info.get("workers", {}))
+    """How many workers the Dask cluster of ``client`` has now (``ANSWER_TIMEOUT``)."""
+    def ask():
+        info = (client.scheduler_info(n_workers=-1)
+                if _takes(client.scheduler_info, "n_workers") else client.scheduler_info())
+        return len(info.get("workers", {}))
+
+    return _answered(_address(client), "did not answer a request", ask)
 
 
 def connect(address: str):
-    """A Dask client of the scheduler at ``address`` (ModelError in one line if none);
-    connect before any work, so that a wrong address costs nothing."""
+    """A Dask client of the scheduler at ``address`` (ModelError in one line if none
+    answers within ``ANSWER_TIMEOUT`` s); connect before any work, so that a wrong
+    address costs nothing."""
     distributed = _distributed()
+
+    def client():
+        return distributed.Client(address, timeout=ANSWER_TIMEOUT, set_as_default=False)
+
     try:
-        return distributed.Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
-    except (OSError, TimeoutError, ValueError) as err:
+        return _answered(address, "cannot reach a Dask scheduler", client)
+    except (OSError, ValueError) as err:
         why = str(err).splitlines()[0] if str(err) else type(err).__name__
         raise ModelError(f"--scheduler {address}: cannot reach a Dask scheduler ({why})"
                          ) from None
 
 
+def _answered(address: str, what: str, call: Callable):
+    """``call()``, run on a helper thread and given up after ``ANSWER_TIMEOUT`` s with a
+    ModelError (Dask bounds a TCP connect, not the handshake that follows, nor every
+    request); the thread of a call given up on is a daemon, left to end with the process."""
+    box: dict = {}
+
+    def attempt() -> None:
+        try:
+            box["value"] = call()
+        except BaseException as err:          # noqa: BLE001  handed to the caller
+            box["error"] = err
+
+    thread = threading.Thread(target=attempt, name="anadyn-scheduler", daemon=True)
+    thread.start()
+    thread.join(ANSWER_TIMEOUT)
+    if thread.is_alive() or isinstance(box.get("error"), TimeoutError):
+        raise ModelError(f"--scheduler {address}: {what} (no answer within "
+                         f"{ANSWER_TIMEOUT:g} s)")
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
+
+
+def _address(client) -> str:
+    scheduler = getattr(client, "scheduler", None)
+    return str(getattr(scheduler, "address", None) or client)
+
+
 def _dask(work: Work, pieces: list, scheduler, on_done) -> Run:
-    distributed = _distributed()
     own = isinstance(scheduler, str)
     client = connect(scheduler) if own else scheduler
-    address = scheduler if own else str(client.scheduler.address)
+    address = scheduler if own else _address(client)
     name = f"{work.label}-{work.key[:16]}"
+    futures = []
     try:
         count = workers(client)
-        client.register_plugin(_plugin_class()(work.key, work.setup, work.payload), name=name)
+        _answered(address, "did not answer a request", lambda: client.register_plugin(
+            _plugin_class()(work.key, work.setup, work.payload), name=name))
         token = os.urandom(4).hex()
         futures = client.map(run_piece, [work.key] * len(pieces), [work.work] * len(pieces),
                              pieces, key=[f"{name}-{token}-{i}" for i in range(len(pieces))],
                              retries=RETRIES, pure=False)
-        index = {f.key: i for i, f in enumerate(futures)}
         results: list = [None] * len(pieces)
-        for future, result in distributed.as_completed(futures, loop=client.loop,
-                                                       with_results=True, raise_errors=False):
-            i = index[future.key]
-            if future.status != "finished":   # lost for good (retries, workers): kept as data
-                error = future.exception() if future.status == "error" else None
-                result = error if isinstance(error, BaseException) else RuntimeError(
-                    f"piece {future.status}")
+        for i, result in _finished(client, address, futures):
             results[i] = result
             if on_done is not None:
                 on_done(i, results[i])
         return Run(results, "dask", count, address=address)
+    except BaseException:                     # interrupted or given up: drop the pieces
+        if futures:
+            _quietly(lambda: _answered(address, "", lambda: client.cancel(futures)))
+        raise
     finally:
-        try:
-            client.unregister_worker_plugin(name)
-        except Exception:                     # noqa: BLE001  cleanup only
-            pass
+        _quietly(lambda: _answered(address, "", lambda: client.unregister_worker_plugin(name)))
         if own:
-            client.close()
+            _quietly(lambda: client.close(timeout=ANSWER_TIMEOUT))
+
+
+def _finished(client, address: str, futures: list):
+    """(index, result) of each piece as it finishes; an exception in place of a piece lost
+    for good.  Every wait is bounded: with no result for ``ALIVE_EVERY`` s the scheduler
+    must answer and, within ``NO_WORKERS_TIMEOUT`` s, have workers."""
+    import queue
+
+    index = {f.key: i for i, f in enumerate(futures)}
+    finished: queue.Queue = queue.Queue()
+    for future in futures:
+        future.add_done_callback(finished.put)
+    workers_seen = time.monotonic()
+    for _ in futures:
+        while True:
+            try:
+                future = finished.get(timeout=ALIVE_EVERY)
+                break
+            except queue.Empty:
+                if workers(client):
+                    workers_seen = time.monotonic()
+                elif time.monotonic() - workers_seen > NO_WORKERS_TIMEOUT:
+                    raise ModelError(f"--scheduler {address}: the cluster has had no "
+                                     f"workers for {NO_WORKERS_TIMEOUT:g} s") from None
+        yield index[future.key], _outcome(address, future)
+
+
+def _outcome(address: str, future):
+    """A finished piece's result, or the exception it failed with for good."""
+    what = "did not send a result"
+    if future.status == "finished":
+        return _answered(address, what, lambda: future.result(timeout=ANSWER_TIMEOUT))
+    if future.status == "error":              # lost for good (retries, workers): kept as data
+        error = _answered(address, what, lambda: future.exception(timeout=ANSWER_TIMEOUT))
+        if isinstance(error, BaseException):
+            return error
+    return RuntimeError(f"piece {future.status}")
+
+
+def _quietly(call: Callable) -> None:
+    """Cleanup that must not hide why a run ended."""
+    try:
+        call()
+    except Exception:                         # noqa: BLE001  cleanup only
+        pass
 
 
 def _takes(function, name: str) -> bool:

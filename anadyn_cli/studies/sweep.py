@@ -166,12 +166,10 @@ def parse_spec(name: str, spec: str) -> Spec:
                              "(11 values from 10 to 60)")
         low, high = _number(where, parts[0]), _number(where, parts[1])
         count = parts[2].strip()
-        if not re.fullmatch(r"\d{1,9}", count) or int(count) < 1:
-            raise ModelError(f"{where}: the grid's COUNT must be a whole number of values, "
-                             f"1 or more, got {count!r}")
+        if not re.fullmatch(r"\d{1,9}", count) or not 1 <= int(count) <= MAX_SAMPLES:
+            raise ModelError(f"{where}: the grid's COUNT must be a whole number from 1 to "
+                             f"{MAX_SAMPLES:,}, got {count!r}")
         count = int(count)
-        if count > MAX_SAMPLES:
-            raise ModelError(f"{where}: {count} values; at most {MAX_SAMPLES:,} samples")
         if count == 1 and low != high:
             raise ModelError(f"{where}: a grid of 1 value from {low:g} to {high:g}; give "
                              "2 or more values, or one value as a list")
@@ -308,6 +306,7 @@ class Payload:
     energy: tuple                 # (rtol, atol, t_end, output_step) of the energy run
     version: str = ""             # anadyn's, where the sweep was planned
     fixed_motion: bool = False    # initial state and trajectory do not depend on them
+    fixed_bodies: tuple[str, ...] = ()   # welded bodies: a mass of 0 adds nothing, is valid
 
 
 @dataclass
@@ -509,7 +508,8 @@ def plan(path: str | Path, vary: list[str], command: str = "simulate",
     payload = Payload(code, info.to_dict(), source, formulation, command,
                       tuple(sorted(options.items())), groups, tuple(columns), settle_band,
                       energy, __version__,
-                      not (folding.follows["trajectory"] or folding.follows["initial"]))
+                      not (folding.follows["trajectory"] or folding.follows["initial"]),
+                      tuple(b.name for b in robot.bodies if b.joint.type == "fixed"))
     moment = time.perf_counter()
     bindable.BoundModel(info, code, formulation)       # compiles here: a bad module fails now
     timings["compile"] = time.perf_counter() - moment
@@ -570,8 +570,9 @@ class Runner:
         for body, mass, inertia in self.model.inertial():
             if not (math.isfinite(mass) and np.isfinite(inertia).all()):
                 return f"body {body}: mass or inertia is not a finite number"
-            if mass <= 0:
-                return f"body {body}: mass {mass:g} kg is not positive"
+            if mass < 0 or (mass == 0 and body not in self.payload.fixed_bodies):
+                return (f"body {body}: mass {mass:g} kg is not positive" if mass < 0 else
+                        f"body {body}: mass 0 kg; only a fixed (welded) body may be massless")
             diagonal = np.diagonal(inertia)
             moments = (np.sort(diagonal) if not (inertia - np.diag(diagonal)).any()
                        else np.linalg.eigvalsh(inertia))
@@ -927,7 +928,8 @@ def summary(result: SweepResult) -> dict:
     counts = result.counts
     data = {
         "robot": plan.robot.name, "source": plan.robot.source,
-        "formulation": plan.payload.formulation, "command": plan.payload.command,
+        "formulation": plan.payload.formulation, "evaluator": "closed-form",
+        "command": plan.payload.command,
         "design": plan.design.kind, "shape": list(plan.design.shape),
         "draws": plan.design.draws, "seed": plan.design.seed,
         "vary": [{**s.to_dict(), "type": folding.kinds[s.name],
@@ -967,21 +969,26 @@ def _failures(result: SweepResult) -> dict:
 
 
 def write(result: SweepResult, out: Path, plot: bool = True) -> list[Path]:
-    """sweep.csv, sweep.png (unless ``plot`` is off) and sweep.json in ``out``."""
+    """sweep.csv, sweep.png (unless ``plot`` is off) and sweep.json in ``out``: rendered
+    first, then written with signals held (``progress.uninterrupted``), so an
+    interruption leaves all three of this sweep or those there before."""
+    from .. import progress
+
     out = output.prepare_dir(out)
     start = time.perf_counter()
-    written = [out / "sweep.csv"]
-    output.write_text(written[0], csv_text(result))
+    contents = {out / "sweep.csv": csv_text(result).encode("utf-8")}
     if plot:
         from .sweep_plot import figure
         from ..output import plots
 
-        written.append(plots.write_figure(out / "sweep.png", figure(result, capacity(result),
-                                                                      headline(result))))
+        contents[out / "sweep.png"] = plots.figure_bytes(
+            figure(result, capacity(result), headline(result)), "png")
     result.timings["write"] = time.perf_counter() - start
-    written.append(out / "sweep.json")
-    output.write_json(written[-1], summary(result))
-    return written
+    with progress.uninterrupted():
+        for path, data in contents.items():
+            output.write_bytes(path, data)
+        output.write_json(out / "sweep.json", summary(result))
+    return [*contents, out / "sweep.json"]
 
 
 def headline(result: SweepResult) -> list[str]:

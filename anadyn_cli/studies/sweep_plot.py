@@ -2,12 +2,19 @@
 
 * one varied name (a grid or a list): each metric against it, one panel per
   quantity and unit (peak efforts, RMS efforts, tracking, settling, final
-  state), with the --max/--min bounds dashed and samples that did not run
-  marked by red dotted lines;
+  state; efforts whose joints have different effort limits in the file in
+  panels of their own, so that one joint's limit never crosses another's
+  curve), each metric's --max/--min bounds and file limit dashed in its own
+  colour and named in the legend, samples that did not run marked by red
+  dotted lines;
 * two varied names on a grid: a heat map of each headline metric over them,
   samples that did not run or missed a limit crossed out;
 * Monte-Carlo draws (or three names and more): a histogram of each headline
   metric over the samples that ran, with the bounds dashed.
+
+The title is the robot and the command; what the marks mean is said under
+the panels; the varied name's unit (kg for a body's mass, m for a length in
+a body's placement) is on the x axis.
 """
 from __future__ import annotations
 
@@ -45,15 +52,27 @@ def _units(result) -> dict[str, str]:
     return units
 
 
+def _file_limit(result, column: str) -> float | None:
+    """The file's effort limit of a peak or RMS column's actuator, when the sweep
+    judges the file's limits."""
+    if "limits_passed" not in result.plan.payload.columns:
+        return None
+    name = column.split("_", 1)[1]
+    return next((a.effort_limit for a in result.plan.robot.actuators if a.name == name), None)
+
+
 def _groups(result) -> list[tuple[str, list[str]]]:
-    """Panels: (y label, metric columns) sharing a quantity and a unit."""
+    """Panels: (y label, metric columns) sharing a quantity, a unit and (efforts) the
+    file's effort limit."""
     columns = result.plan.payload.columns
     units = _units(result)
     panels: list[tuple[str, list[str]]] = []
     for prefix, label in (("peak_", "peak |effort|"), ("rms_", "RMS effort")):
         chosen = [c for c in columns if c.startswith(prefix)]
-        for unit in sorted({units[c] for c in chosen}):
-            panels.append((f"{label} ({unit})", [c for c in chosen if units[c] == unit]))
+        kinds = dict.fromkeys((units[c], _file_limit(result, c) or 0.0) for c in chosen)
+        for unit, limit in sorted(kinds):
+            panels.append((f"{label} ({unit})", [c for c in chosen if units[c] == unit and
+                                                (_file_limit(result, c) or 0.0) == limit]))
     if "tracking_error" in columns:
         panels.append((f"error ({units['tracking_error']})", ["tracking_error", "final_error"]))
     for c in ("settling_time", "energy_error", "fastest_decay", "mass_condition_scaled"):
@@ -104,15 +123,40 @@ def figure(result, capacity: dict | None, headline: list[str]):
 
     plan = result.plan
     names = _axes_names(result)
-    title = (f"{plan.robot.name}: {plan.payload.command} sweep of "
-             f"{', '.join(plan.design.names)} ({len(result.rows)} samples, "
-             f"{result.counts['ok']} ok)")
+    title = f"{plan.robot.name}: sweep ({plan.payload.command})"
     if len(names) <= 1 and not any(s.random for s in plan.design.specs):
         return _lines(result, names[0] if names else plan.design.names[0], title, Figure,
                       capacity)
     if len(names) == 2:
         return _heat_maps(result, names, title, Figure, headline[:MAX_PANELS])
     return _histograms(result, title, Figure, headline[:MAX_PANELS])
+
+
+def name_label(result, name: str) -> str:
+    """The varied name with its unit, where the robot file says: kg for a name that is
+    a body's mass, m for one in a body's centre of mass or joint origin."""
+    import sympy as sp
+
+    robot = result.plan.folding.robot
+    symbol = sp.Symbol(name, real=True)
+    unit = ""
+    for body in robot.bodies:
+        if body.mass == symbol:
+            unit = "kg"
+            break
+        places = [*body.com, *body.joint.origin]
+        if any(symbol in getattr(v, "free_symbols", ()) for v in places):
+            unit = "m"
+    return f"{name} ({unit})" if unit else f"{name} (in the file's units)"
+
+
+def _notes(figure, notes: list[str]) -> None:
+    """What the marks mean, under the panels (in the layout: never cut)."""
+    if notes:
+        import textwrap
+
+        width = int(figure.get_figwidth() * 14)
+        figure.supxlabel("\n".join(textwrap.wrap("; ".join(notes), width)), fontsize=8)
 
 
 def _layout(count: int) -> tuple[int, int]:
@@ -135,33 +179,38 @@ def _lines(result, name: str, title: str, Figure, cap: dict | None):
             ax.set_visible(False)
             continue
         label, metrics = panels[k]
+        limits: dict[tuple[str, float], list[tuple[str, str]]] = {}
         for column in metrics:
             y = _values(result, column)
-            ax.plot(x[order], y[order], marker="o", markersize=3, linewidth=1.1,
-                    label=column)
+            line, = ax.plot(x[order], y[order], marker="o", markersize=3, linewidth=1.1,
+                            label=column)
             for kind, bound in _bounds(result, column):
-                ax.axhline(_scaled(result, column, np.array(bound)), linestyle="--",
-                           linewidth=0.9, color="0.3")
-                ax.annotate(f"{kind} {column}", (1, float(_scaled(result, column,
-                                                                    np.array(bound)))),
-                            xycoords=("axes fraction", "data"), ha="right", va="bottom",
-                            fontsize=7, color="0.3")
+                limits.setdefault((kind, float(_scaled(result, column, np.array(bound)))),
+                                  []).append((column, line.get_color()))
+        for (kind, bound), owners in limits.items():    # one line per bound: one curve's
+            whose = "" if len(owners) == len(metrics) else \
+                " " + ", ".join(column for column, _ in owners)    # in its colour, else grey
+            ax.axhline(bound, linestyle="--", linewidth=0.9,
+                       color=owners[0][1] if len(owners) == 1 else "0.3",
+                       label=f"{kind}{whose} = {bound:g}")
         for value in bad:
             ax.axvline(value, color="tab:red", linestyle=":", linewidth=0.9)
         if edge is not None:
-            ax.axvline(edge, color="tab:green", linestyle="--", linewidth=1.0)
+            ax.axvline(edge, color="0.2", linestyle="-.", linewidth=1.0)
         ax.set_ylabel(label, fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(True, alpha=0.35, linewidth=0.6)
-        if len(metrics) > 1:
-            ax.legend(fontsize=7, loc="best")
+        ax.legend(fontsize=7, loc="best")
         if k + columns >= len(panels):
             ax.xaxis.set_tick_params(labelbottom=True)
-            ax.set_xlabel(name, fontsize=8)
-    notes = [f"red dotted: {len(bad)} not run"] if len(bad) else []
+            ax.set_xlabel(name_label(result, name), fontsize=8)
+    notes = [f"{len(result.rows)} samples, {result.counts['ok']} ok"]
+    if len(bad):
+        notes.append(f"red dotted: {len(bad)} not run")
     if edge is not None:
-        notes.append(f"green: within the limits up to {name} = {edge:g}")
-    figure.suptitle(title + "".join(f"; {n}" for n in notes), fontsize=10)
+        notes.append(f"dash-dotted: within the limits up to {name} = {edge:g}")
+    figure.suptitle(title, fontsize=10)
+    _notes(figure, notes)
     return figure
 
 
@@ -198,11 +247,12 @@ def _heat_maps(result, names: list[str], title: str, Figure, columns: list[str])
                 if math.isfinite(v):
                     ax.text(r[names[0]], r[names[1]], f"{v:.3g}", ha="center", va="center",
                             fontsize=6, color="white")
-        ax.set_xlabel(names[0], fontsize=8)
-        ax.set_ylabel(names[1], fontsize=8)
+        ax.set_xlabel(name_label(result, names[0]), fontsize=8)
+        ax.set_ylabel(name_label(result, names[1]), fontsize=8)
         ax.tick_params(labelsize=7)
-    note = "red x: did not run" + (" or missed a limit" if plan.judged else "")
-    figure.suptitle(f"{title}; {note}", fontsize=10)
+    figure.suptitle(title, fontsize=10)
+    _notes(figure, [f"{len(result.rows)} samples, {result.counts['ok']} ok",
+                    "red x: did not run" + (" or missed a limit" if plan.judged else "")])
     return figure
 
 
@@ -239,4 +289,5 @@ def _histograms(result, title: str, Figure, columns: list[str]):
         ax.tick_params(labelsize=7)
         ax.grid(True, alpha=0.35, linewidth=0.6)
     figure.suptitle(title, fontsize=10)
+    _notes(figure, [f"{len(result.rows)} samples, {result.counts['ok']} ok"])
     return figure

@@ -2,7 +2,7 @@
 
 Frames: each body frame is its joint frame after the joint moves.  With
 R_l the rotation from body axes to parent axes and o the body origin in
-parent axes (the joint origin, plus a*d for a prismatic joint):
+parent axes, as the joint type gives them (``model.joints``: ``transform``):
 
     revolute:  R_l = C Rot(a, theta(q)),  o = origin
     prismatic: R_l = C,                   o = origin + C a d(q)
@@ -10,10 +10,12 @@ parent axes (the joint origin, plus a*d for a prismatic joint):
 
 where C = Rz(yaw) Ry(pitch) Rx(roll) and a is the unit axis in joint axes.
 Velocities are linear in the rates dq, so each body carries its partial
-velocities as 3 x n matrices in its own axes (columns r = d/d(dq_r)):
+velocities as 3 x n matrices in its own axes (columns r = d/d(dq_r)), with
+(s, v) the joint's motion subspace (``subspace``: (a, -) revolute, (-, a)
+prismatic):
 
-    W_i  = R_l^T W_p + a (d theta/dq)           partial angular velocities
-    Vo_i = R_l^T (Vo_p + W_p x o) [+ a (dd/dq)] partial velocities of the origin
+    W_i  = R_l^T W_p [+ s (d theta/dq)]          partial angular velocities
+    Vo_i = R_l^T (Vo_p + W_p x o) [+ v (d theta/dq)]  partial velocities of the origin
     V_i  = Vo_i + W_i x c                        partial velocities of the mass centre
 
 World-frame rotation R_i = R_p R_l and mass-centre position
@@ -110,19 +112,17 @@ def build(robot: Robot, symbolic: bool = False) -> Kinematics:
         displacement = sub(joint.displacement)
         rates = Matrix([[sp.diff(displacement, qr) for qr in q]])
         C = rpy_rotation([sub(a) for a in joint.rpy])
-        origin = Matrix([sub(a) for a in joint.origin])
-        if joint.type == "revolute":
-            R_local = Matrix(C * rotation(axis, displacement))
-        else:
-            R_local = C
-            if joint.type == "prismatic":
-                origin = Matrix(origin + C * axis * displacement)
+        kind = joint.joint_type
+        R_local, origin = kind.transform(C, Matrix([sub(a) for a in joint.origin]), axis,
+                                         displacement, rotation)
+        R_local, origin = Matrix(R_local), Matrix(origin)
+        turns = kind.angular and not kind.linear        # a pure turn about the axis
         # world rotation, merging consecutive turns about one axis
         base, p_axis, p_angle = frames[parent] if P is not None else (Matrix.eye(3), None, 0)
         parent_R = P.R if P is not None else Matrix.eye(3)
-        if joint.type == "revolute" and C == sp.eye(3) and p_axis == axis:
+        if turns and C == sp.eye(3) and p_axis == axis:
             frame = (base, axis, p_angle + displacement)
-        elif joint.type == "revolute":
+        elif turns:
             frame = (Matrix(parent_R * C), axis, displacement)
         else:
             frame = (Matrix(parent_R * C), None, sp.Integer(0))
@@ -133,10 +133,11 @@ def build(robot: Robot, symbolic: bool = False) -> Kinematics:
         Rt = R_local.T
         W = Matrix(Rt * W_p)
         Vo = Matrix(Rt * (Vo_p + cross_columns(W_p, origin)))
-        if joint.type == "revolute":
-            W = Matrix(W + axis * rates)
-        elif joint.type == "prismatic":
-            Vo = Matrix(Vo + axis * rates)
+        angular, linear = kind.subspace(axis)
+        if angular is not None:
+            W = Matrix(W + angular * rates)
+        if linear is not None:
+            Vo = Matrix(Vo + linear * rates)
         com = Matrix([sub(c) for c in body.com])
         V = Matrix(Vo + cross_columns(W, com))
         p_origin = (P.position - P.R * P.com + parent_R * origin) if P is not None else origin

@@ -21,6 +21,7 @@ from ..errors import ModelError
 
 FORMATS = ("text", "latex")
 FORMS = ("residual", "matrices")
+LATEX_LINE = 80      # printed characters per displayed line of LaTeX, about a text width
 
 
 def render(eom: EquationsOfMotion, fmt: str = "text", form: str = "residual") -> str:
@@ -132,11 +133,93 @@ def latex_names(coordinates) -> dict[sp.Symbol, str]:
     return names
 
 
+def latex_width(latex: str) -> int:
+    """Roughly how many characters ``latex`` takes printed: commands that draw
+    nothing or a single glyph, braces and sub/superscript markers dropped."""
+    import re
+
+    text = re.sub(r"\\(left|right|nonumber|quad)\b", "", latex)
+    text = re.sub(r"\\(dot|ddot|mathrm|operatorname)\b", "", text)
+    text = re.sub(r"\\[A-Za-z]+", "xx", text)        # \sin, \alpha: about two glyphs
+    return len(re.sub(r"[{}_^ ]", "", text))
+
+
+def _top_level(latex: str) -> tuple[list[int], list[tuple[int, int]]]:
+    """Where ``latex`` has a binary `` + `` or `` - `` outside every brace and
+    \\left ... \\right pair, and the (start, end) of its outermost \\left ... \\right
+    pairs (end: just after the closing delimiter)."""
+    cuts, groups, depth, opened, k = [], [], 0, 0, 0
+    while k < len(latex):
+        if latex.startswith(r"\left", k):
+            if depth == 0:
+                opened = k
+            depth, k = depth + 1, k + 5
+            continue
+        if latex.startswith(r"\right", k):
+            depth, k = depth - 1, k + 6
+            if depth == 0:
+                k += 2 if latex.startswith("\\", k) else 1     # the delimiter
+                groups.append((opened, k))
+            continue
+        if latex[k] == "{":
+            depth += 1
+        elif latex[k] == "}":
+            depth -= 1
+        elif depth == 0 and k > 0 and latex.startswith((" + ", " - "), k):
+            cuts.append(k)
+        k += 1
+    return cuts, groups
+
+
+def latex_lines(latex: str, width: int = LATEX_LINE) -> list[str]:
+    """A sum printed by SymPy cut into lines of about ``width`` printed characters,
+    before its top-level `` + `` and `` - `` (never inside braces, so every line
+    stays balanced); a term still too long that holds a \\left( ... \\right) sum
+    is cut inside it, each line closing with \\right. and the next opening with
+    \\left. ."""
+    cuts, _ = _top_level(latex)
+    pieces = [latex[a:b].strip() for a, b in zip([0, *cuts], [*cuts, len(latex)])]
+    lines = [""]
+    for piece in pieces:
+        if latex_width(piece) > width:
+            inner = _group_lines(piece, width)
+            if len(inner) > 1:
+                if lines[-1]:
+                    lines.append("")
+                lines[-1] += inner[0]
+                lines += inner[1:]
+                continue
+        if lines[-1] and latex_width(lines[-1]) + latex_width(piece) > width:
+            lines.append("")
+        lines[-1] += (" " if lines[-1] else "") + piece
+    return lines
+
+
+def _group_lines(term: str, width: int) -> list[str]:
+    """``term`` = head \\left( sum \\right) tail cut inside the sum (one line if it
+    has no such group)."""
+    _, groups = _top_level(term)
+    if not groups:
+        return [term]
+    start, end = max(groups, key=lambda g: g[1] - g[0])
+    opening = term[start:start + 6]                   # \left( or \left[
+    closing = term[end - 7:end] if term[end - 8:end - 6] != "\\" else term[end - 8:end]
+    inner = latex_lines(term[start + 6:end - len(closing)], width)
+    if len(inner) == 1:
+        return [term]
+    lines = [f"{term[:start]}{opening}{inner[0]} \\right."]
+    lines += [rf"\left. {line} \right." for line in inner[1:-1]]
+    lines.append(rf"\left. {inner[-1]} {closing}{term[end:]}")
+    return lines
+
+
 def latex_document(text: str, title: str) -> str:
     """A printout made with fmt "latex" as a LaTeX document that compiles as it is
     (pdflatex, amsmath only).  Its lines become: ``# heading`` a paragraph;
     ``q1: e = 0`` the row ``e &= 0`` tagged (q_1); ``lhs = e`` the row
-    ``lhs &= e`` (``M[1,2]`` written M_{1,2})."""
+    ``lhs &= e`` (``M[1,2]`` written M_{1,2}); a long sum continues on further
+    rows, ``& \\quad ...``, of about LATEX_LINE printed characters
+    (``latex_lines``)."""
     import re
 
     out = [f"% {title} (anadyn)", r"\documentclass[10pt]{article}", r"\usepackage{amsmath}",
@@ -159,11 +242,19 @@ def latex_document(text: str, title: str) -> str:
         labelled = re.fullmatch(r"([A-Za-z]\w*): (.*) = 0", line)
         if labelled:
             label = sp.latex(sp.Symbol(labelled[1]))
-            rows.append(f"  {labelled[2]} &= 0 \\tag*{{$({label})$}}")
+            parts = latex_lines(labelled[2])
+            if len(parts) == 1:
+                rows.append(f"  {parts[0]} &= 0 \\tag*{{$({label})$}}")
+            else:                    # long: the lines aligned on the left, "= 0" at the end
+                rows.append(" \\\\\n".join([f"  & {parts[0]}"]
+                                          + [rf"  & \quad {p}" for p in parts[1:]])
+                            + f" = 0 \\tag*{{$({label})$}}")
             continue
         lhs, _, rhs = line.partition(" = ")
         lhs = re.sub(r"^(\w+)\[([^\]]+)\]", r"\1_{\2}", lhs)
-        rows.append(f"  {lhs} &= {rhs}")
+        parts = latex_lines(rhs)
+        rows.append(" \\\\\n".join([f"  {lhs} &= {parts[0]}"]
+                                  + [rf"  & \quad {p}" for p in parts[1:]]))
     close()
     out.append(r"\end{document}")
     return "\n".join(out)

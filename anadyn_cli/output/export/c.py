@@ -9,11 +9,13 @@ pseudo-inverse) is fixed-size loops over local arrays.
 """
 from __future__ import annotations
 
+from typing import Callable
+
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 
-from .model import (Block, ExportModel, Named, block, inputs_used, local_names, row_major,
-                    temporary_prefix)
+from .model import (Block, ExportModel, Named, block, inputs_used, leaf_note, local_names, quiet,
+                    row_major, temporary_prefix)
 
 C_KEYWORDS = {
     "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
@@ -49,9 +51,9 @@ def _names(model: ExportModel) -> dict:
     return local_names(model, C_KEYWORDS | C_MATH | ARGUMENTS)
 
 
-def files(model: ExportModel) -> dict[str, str]:
-    """{"NAME.h": ..., "NAME.c": ...}."""
-    return {f"{model.name}.h": header(model), f"{model.name}.c": source(model)}
+def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, str]:
+    """{"NAME.h": ..., "NAME.c": ...}; ``note`` hears which function is being generated."""
+    return {f"{model.name}.h": header(model), f"{model.name}.c": source(model, note)}
 
 
 def _params(model: ExportModel, pointer: bool = True) -> str:
@@ -60,8 +62,13 @@ def _params(model: ExportModel, pointer: bool = True) -> str:
 
 
 def _comment(lines: list[str]) -> str:
+    """A C block comment of ``lines`` (user text already made ``printable``): a ``*/``
+    or ``/*`` inside becomes ``* /`` or ``/ *`` (so a path such as ``a/*/b`` neither
+    ends the comment nor trips -Wcomment), and ``??`` becomes ``? ?`` (no trigraph)."""
     body = "\n".join((" * " + line).rstrip() for line in lines)
-    return "/*\n" + body.replace("*/", "* /") + "\n */"
+    while "*/" in body or "/*" in body or "??" in body:
+        body = body.replace("*/", "* /").replace("/*", "/ *").replace("??", "? ?")
+    return "/*\n" + body + "\n */"
 
 
 def header(model: ExportModel) -> str:
@@ -148,8 +155,9 @@ def _declarations(model: ExportModel, P: str) -> list[tuple[list[str], str]]:
 
 def _leaf(model: ExportModel, names: dict, prefix: str, signature: str,
           outputs: dict[str, sp.Matrix], arrays: list[str], symmetric: str | None = None,
-          dims: dict[str, int] | None = None) -> list[str]:
+          note: Callable[[str], None] = quiet) -> list[str]:
     """One generated function: unpack the inputs it uses, temporaries, outputs."""
+    note(leaf_note(outputs))
     blk: Block = block({k: row_major(v) for k, v in outputs.items()}, names, prefix)
     printer = _Printer(blk.names)
     lines = [signature, "{"]
@@ -181,7 +189,7 @@ def _leaf(model: ExportModel, names: dict, prefix: str, signature: str,
     return lines
 
 
-def source(model: ExportModel) -> str:
+def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
     N, P = model.name, _params(model)
     Pa = _params(model, pointer=False)
     n, m = model.n, model.m
@@ -199,17 +207,18 @@ def source(model: ExportModel) -> str:
     # -- the equations -------------------------------------------------------
     lower = sp.Matrix(model.n, model.n, lambda i, j: model.M[i, j] if j <= i else 0)
     lines += _leaf(model, names, prefix, f"void {N}_mass_matrix(const double *q, double *M{P})",
-                   {"M": lower}, ["q", *extra], symmetric="M") + [""]
+                   {"M": lower}, ["q", *extra], symmetric="M", note=note) + [""]
     lines += _leaf(model, names, prefix,
                    f"void {N}_forcing(double t, const double *q, const double *dq, double *F{P})",
-                   {"F": model.F}, ["t", "q", "dq", *extra]) + [""]
+                   {"F": model.F}, ["t", "q", "dq", *extra], note=note) + [""]
     if m:
         lines += _leaf(model, names, prefix,
                        f"void {N}_input_matrix(const double *q, double *B{P})",
-                       {"B": model.B}, ["q", *extra]) + [""]
+                       {"B": model.B}, ["q", *extra], note=note) + [""]
         lines += _leaf(model, names, prefix,
                        f"void {N}_efforts(double t, const double *q, const double *dq, "
-                       f"double *tau{P})", {"tau": model.laws}, ["t", "q", "dq", *extra]) + [""]
+                       f"double *tau{P})", {"tau": model.laws}, ["t", "q", "dq", *extra],
+                       note=note) + [""]
     else:
         lines += [f"void {N}_input_matrix(const double *q, double *B{P})", "{",
                   "    (void)q;", "    (void)B;", *(["    (void)p;"] if extra else []), "}", "",
@@ -220,7 +229,7 @@ def source(model: ExportModel) -> str:
     lines += _leaf(model, names, prefix,
                    f"static void {N}_partials(double t, const double *q, const double *dq, "
                    f"const double *ddq, double *K{P})", {"K": model.K},
-                   ["t", "q", "dq", "ddq", *extra]) + [""]
+                   ["t", "q", "dq", "ddq", *extra], note=note) + [""]
     # -- linear algebra ------------------------------------------------------
     lines += _linear_algebra(N, NQ, NE, n, m)
     # -- the dynamics ----------------------------------------------------------

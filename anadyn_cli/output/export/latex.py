@@ -6,7 +6,8 @@ A whole document (article, amsmath) or, with ``fragment``, only its body
 (which needs ``\\usepackage{amsmath}``).  Small systems are shown with their
 trigonometric terms recombined and collected by accelerations and efforts
 (as ``anadyn equations`` does); long sums are broken across lines between
-terms, so every line's \\left( ... \\right) stay balanced.
+terms, and a term too long for a line inside its \\left( ... \\right) (the line
+closing with \\right., the next opening with \\left.), so every line stays balanced.
 """
 from __future__ import annotations
 
@@ -15,21 +16,13 @@ import re
 import sympy as sp
 
 from ...symbolic.canonical import fits
+from ...symbolic.render import latex_lines, latex_width as _width
 from .model import TIME, ExportModel
 
-LINE = 80           # printed characters per displayed line (``_width``), about a text width
+LINE = 80           # printed characters per displayed line (``latex_width``), about a text width
 SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#",
            "_": r"\_", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}",
            "^": r"\textasciicircum{}"}
-
-
-def _width(latex: str) -> int:
-    """Roughly how many characters ``latex`` takes printed: commands that draw
-    nothing or a single glyph, braces and sub/superscript markers dropped."""
-    text = re.sub(r"\\(left|right|nonumber|quad)\b", "", latex)
-    text = re.sub(r"\\(dot|ddot|mathrm|operatorname)\b", "", text)
-    text = re.sub(r"\\[A-Za-z]+", "xx", text)        # \sin, \alpha: about two glyphs
-    return len(re.sub(r"[{}_^ ]", "", text))
 
 
 def escape(text: str) -> str:
@@ -82,9 +75,10 @@ class _Writer:
             text = self.latex(term)
             if k:
                 text = f"- {text[1:].lstrip()}" if text.startswith("-") else f"+ {text}"
-            if out[-1] and _width(out[-1]) + _width(text) > LINE:
-                out.append("")
-            out[-1] += (" " if out[-1] else "") + text
+            for part in latex_lines(text, LINE):      # a term too long: cut inside its ( )
+                if out[-1] and _width(out[-1]) + _width(part) > LINE:
+                    out.append("")
+                out[-1] += (" " if out[-1] else "") + part
         return out
 
     def equation(self, left: str, expr: sp.Expr, tag: str | None = None,

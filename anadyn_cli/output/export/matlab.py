@@ -6,11 +6,13 @@ struct p last, defaulting to NAME_params() (the robot file's values).
 """
 from __future__ import annotations
 
+from typing import Callable
+
 import sympy as sp
 from sympy.printing.octave import OctaveCodePrinter
 
-from .model import (ExportModel, Named, block, inputs_used, local_names, row_major,
-                    temporary_prefix, wrap)
+from .model import (ExportModel, Named, block, inputs_used, leaf_note, local_names, quiet,
+                    row_major, temporary_prefix, wrap)
 
 MATLAB_KEYWORDS = {
     "break", "case", "catch", "classdef", "continue", "else", "elseif", "end", "for",
@@ -55,7 +57,8 @@ def _help(name: str, summary: str, lines: list[str]) -> list[str]:
     return out
 
 
-def files(model: ExportModel) -> dict[str, str]:
+def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, str]:
+    """One file per function, NAME_*.m; ``note`` hears which one is being generated."""
     N, n, m = model.name, model.n, model.m
     names = _names(model)
     prefix = temporary_prefix(set(names.values()), "w")
@@ -71,6 +74,7 @@ def files(model: ExportModel) -> dict[str, str]:
         return [f"  if nargin < {count}", f"    p = {N}_params();", "  end"] if sym else []
 
     def leaf(fname, outvar, args, summary, doc, matrix, nargs, symmetric=False):
+        note(leaf_note({outvar: matrix}))
         blk = block({"X": row_major(matrix)}, names, prefix)
         printer = _Printer(blk.names)
         lines = [f"function {outvar} = {N}_{fname}({args})",

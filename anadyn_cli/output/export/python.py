@@ -12,12 +12,13 @@ from __future__ import annotations
 import builtins
 import keyword
 import textwrap
+from typing import Callable
 
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-from .model import (ExportModel, Named, block, inputs_used, local_names, row_major,
-                    temporary_prefix)
+from .model import (ExportModel, Named, block, inputs_used, leaf_note, local_names, quiet,
+                    row_major, temporary_prefix)
 
 #: arguments and module-level names the generated functions use
 ARGUMENTS = {"t", "q", "dq", "ddq", "p", "x", "tau", "math", "PARAMETERS"}
@@ -34,8 +35,9 @@ class _Printer(Named, PythonCodePrinter):
         return repr(float(expr))
 
 
-def files(model: ExportModel) -> dict[str, str]:
-    return {f"{model.name}.py": source(model)}
+def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, str]:
+    """{"NAME.py": ...}; ``note`` hears which function is being generated."""
+    return {f"{model.name}.py": source(model, note)}
 
 
 def _doc(model: ExportModel) -> str:
@@ -98,7 +100,7 @@ def _leaf(model: ExportModel, names: dict, prefix: str, name: str, args: str, do
     return lines
 
 
-def source(model: ExportModel) -> str:
+def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
     n, m = model.n, model.m
     names = local_names(model, RESERVED)
     prefix = temporary_prefix(set(names.values()), "_w")
@@ -128,6 +130,7 @@ def source(model: ExportModel) -> str:
              "control laws (m).", "tau", model.laws, "vector"),
             ("_partials", "t, q, dq, ddq", "K = [dG/dq - (dM/dq) ddq | dG/d(dq)], G = F + B "
              "tau(t, q, dq): n x 2n.", "K", model.K, "matrix")):
+        note(leaf_note({key: matrix}))
         lines += _leaf(model, names, prefix, name, f"{args}{p}", doc, {key: matrix},
                        {key: shape}) + ["", ""]
     lines += textwrap.dedent(f'''\

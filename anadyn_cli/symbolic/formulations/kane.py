@@ -57,10 +57,11 @@ def equations(robot: Robot, kin: Kinematics) -> EquationsOfMotion:
         # velocity-product accelerations, body axes
         al = Matrix(Rt * al_p)
         ao = Matrix(Rt * (ao_p + al_p.cross(b.origin) + w_p.cross(w_p.cross(b.origin))))
-        if b.body.joint.type == "revolute":
-            al = Matrix(al + b.axis * rate2 + w_p_here.cross(b.axis * rate))
-        elif b.body.joint.type == "prismatic":
-            ao = Matrix(ao + 2 * w_p_here.cross(b.axis * rate) + b.axis * rate2)
+        angular, linear = b.body.joint.joint_type.subspace(b.axis)
+        if angular is not None:
+            al = Matrix(al + angular * rate2 + w_p_here.cross(angular * rate))
+        if linear is not None:
+            ao = Matrix(ao + 2 * w_p_here.cross(linear * rate) + linear * rate2)
         ac = Matrix(ao + al.cross(b.com) + w.cross(w.cross(b.com)))
         g = Matrix(b.R.T * kin.gravity)                        # gravity, body axes
         omega.append(w), alpha.append(al), acc_origin.append(ao)
@@ -85,7 +86,7 @@ def joint_partials(kin: Kinematics, b: BodyKinematics) -> Matrix:
     n = len(kin.q)
     parent = kin.bodies[b.parent] if b.parent is not None else None
     Rt = b.R_local.T
-    if b.body.joint.type == "revolute":     # torque on child, reaction on parent
+    if b.body.joint.joint_type.angular:      # torque on child, reaction on parent
         child, carried = b.W, (Rt * parent.W if parent else Matrix.zeros(3, n))
     else:                                    # force at coincident points
         child = b.Vo

@@ -1,0 +1,241 @@
+"""The generic kernel: the recursions compiled once per installation, reading a
+robot as numbers (``tables``), so that a cold run starts at once.
+
+``kernel.c`` (read with importlib.resources) runs the articulated-body
+algorithm (forward dynamics, O(n)), the recursive Newton-Euler algorithm
+(inverse dynamics M ddq - F, with the joint springs, dampers and friction) and
+the composite-rigid-body algorithm (M) over the tables of ``tables.pack``.  It
+is compiled like the robot-specific code (``native.load``, the cache's
+``-native`` folder, hashed, owner-only), once: its C text does not depend on
+the robot.
+
+``first_run`` serves a cold run (cache miss) with a ``GenericModel`` while the
+robot-specific code is generated, stored in the derivation cache and compiled
+in a forked process at the lowest priority, for the next run.  Only when
+native code is on in its default mode (``ANADYN_NATIVE`` unset), and
+``ANADYN_GENERIC`` is not 0, on POSIX (fork), for robots the tables can hold.
+A ``GenericModel`` computes rhs, accelerations, driven accelerations, the
+inverse dynamics (``demand``) and M F B with the kernel, the control laws with
+a small generated Python function, and the Jacobian of the state derivative by
+differences (``GenericModel.jacobian``); anything else (energy, powers) comes from the
+generated Python of the full recursive path, built in this process when first
+asked for.  The kernel's numbers agree with the generated code to rounding
+(~1e-13 relative, a different order of operations), not to the bit.
+"""
+from __future__ import annotations
+
+import os
+import sys
+from importlib import resources
+
+import numpy as np
+
+from .tables import Tables, pack
+from ..model import NumericModel, PrescribedMotion, run_generated
+
+__all__ = ["GenericModel", "Tables", "enabled", "first_run", "kernel", "pack"]
+
+
+def c_text() -> str:
+    """The kernel's C file (module name and init function left as placeholders)."""
+    return resources.files(__package__).joinpath("kernel.c").read_text(encoding="utf-8")
+
+
+def enabled() -> bool:
+    """ANADYN_GENERIC not 0 and native code in its default mode (``native.mode``)."""
+    from .. import native
+
+    value = os.environ.get("ANADYN_GENERIC", "1").strip().lower()
+    return value not in ("0", "off", "no") and native.mode() == "auto"
+
+
+_KERNEL: list = []
+
+
+def kernel():
+    """The compiled kernel module (built now the first time ever: once per
+    installation and cache folder), or None when native code cannot be built."""
+    if not _KERNEL:
+        from .. import native
+
+        module, _ = native.load(c_text(), how="wait")
+        _KERNEL.append(module)
+    return _KERNEL[0]
+
+
+def _call(code: int) -> None:
+    if code == 1:
+        raise np.linalg.LinAlgError("mass matrix not positive definite")
+
+
+class GenericModel(NumericModel):
+    """A ``NumericModel`` computed by the generic kernel (module docstring);
+    ``full()`` builds the generated Python for what the kernel does not do."""
+
+    def __init__(self, info, pl, tables: Tables, module, small_source: str, full):
+        namespace = run_generated(small_source)
+        self.info, self.source = info, small_source
+        self.evaluator, self.formulation = "recursive", None
+        self.coordinates, self.effort_names = tuple(pl.coordinates), tuple(pl.efforts)
+        self.n = pl.n
+        self._tables, self._kernel, self._make_full, self._full = tables, module, full, None
+        self._ints, self._doubles = tables.ints, tables.doubles
+        self._laws = namespace["laws"] if self.effort_names and not namespace["NO_LAWS"] else None
+        self._efforts = namespace["efforts"]
+        self._motion = (PrescribedMotion(*namespace["TRAJECTORY"], namespace["motion"])
+                        if "TRAJECTORY" in namespace else None)
+        self._motion_error = namespace.get("MOTION_ERROR")
+        self._jacobian = self.jacobian
+        nm = tables.A.shape[0]
+        self._select = np.zeros((nm, len(self.effort_names)))     # efforts -> joint forces
+        for k, j in enumerate(tables.actuator_joint):
+            self._select[j, k] = 1.0
+        self._B = tables.A.T @ self._select                       # constant: theta affine
+        self._B.setflags(write=False)
+        self._zero = np.zeros(nm)
+        self.native_note = "generic kernel (the robot's own code is built for the next run)"
+
+    def full(self) -> NumericModel:
+        """The generated Python of the recursive path (built on first use)."""
+        if self._full is None:
+            self._full = self._make_full()
+        return self._full
+
+    def __getattr__(self, name):          # only for what this class does not set
+        if name.startswith("__") or name in ("_full", "_make_full"):
+            raise AttributeError(name)
+        return getattr(self.full(), name)
+
+    def _joint_efforts(self, t: float, x) -> np.ndarray:
+        if self._laws is None:
+            return self._zero
+        return self._select @ np.asarray(self._laws(t, *x.tolist()), dtype=float)
+
+    def rhs(self, t: float, x: np.ndarray) -> np.ndarray:
+        x = np.ascontiguousarray(x, dtype=float)
+        out = np.empty(2 * self.n)
+        _call(self._kernel.rhs(self._ints, self._doubles, x, self._joint_efforts(t, x), out))
+        return out
+
+    def accelerations(self, t: float, x) -> list[float]:
+        return self.rhs(t, np.asarray(x, dtype=float))[self.n:].tolist()
+
+    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        """[[0, I], [d(ddq)/dx]]: forward differences of the kernel's accelerations at
+        fixed efforts, plus M^-1 B d(tau)/dx with the laws' derivatives by central
+        differences (step ~eps^(1/3))."""
+        n, n2 = self.n, 2 * self.n
+        x = np.ascontiguousarray(x, dtype=float)
+        J = np.empty((n2, n2))
+        _call(self._kernel.jac(self._ints, self._doubles, x, self._joint_efforts(t, x), J))
+        if self._laws is not None:
+            dtau = np.empty((len(self.effort_names), n2))
+            for k in range(n2):
+                up, down = x.copy(), x.copy()
+                up[k] += 6e-6 * max(1.0, abs(x[k]))
+                down[k] -= 6e-6 * max(1.0, abs(x[k]))
+                dtau[:, k] = ((np.asarray(self._laws(t, *up.tolist()), dtype=float)
+                               - np.asarray(self._laws(t, *down.tolist()), dtype=float))
+                              / (up[k] - down[k]))
+            M = np.empty((n, n))
+            _call(self._kernel.mass(self._ints, self._doubles, np.ascontiguousarray(x[:n]), M))
+            J[n:] += np.linalg.solve(M, self._B @ dtau)
+        return J
+
+    def driven_accelerations(self, t: float, x: np.ndarray, efforts) -> np.ndarray:
+        x = np.ascontiguousarray(x, dtype=float)
+        out = np.empty(2 * self.n)
+        _call(self._kernel.rhs(self._ints, self._doubles, x,
+                               self._select @ np.asarray(efforts, dtype=float), out))
+        return out[self.n:]
+
+    def actuation(self, t, q, dq) -> np.ndarray:
+        return self._B
+
+    def _inverse_points(self, q, dq, ddq) -> tuple[np.ndarray, tuple]:
+        """M ddq - F (no actuators) over broadcast arrays (n, ...) -> (..., n)."""
+        n = self.n
+        arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (*q, *dq, *ddq)))
+        shape = arrays[0].shape
+        columns = np.stack([a.reshape(-1) for a in arrays], axis=1)
+        count = len(columns)
+        out = np.empty((count, n))
+        _call(self._kernel.inverse(self._ints, self._doubles, count,
+                                   np.ascontiguousarray(columns[:, :2 * n]),
+                                   np.ascontiguousarray(columns[:, 2 * n:]), out))
+        return out, shape
+
+    def demand(self, t, q, dq, ddq) -> tuple[np.ndarray, np.ndarray]:
+        out, shape = self._inverse_points(q, dq, ddq)
+        return out.reshape(shape + (self.n,)), self._B
+
+    def mfb(self, t, q, dq):
+        n = self.n
+        zeros = np.zeros((n,) + np.broadcast_shapes(np.shape(q[0]), np.shape(dq[0])))
+        out, shape = self._inverse_points(q, dq, zeros)
+        qs = np.stack([np.broadcast_to(np.asarray(v, dtype=float), shape).reshape(-1) for v in q],
+                      axis=1)
+        M = np.empty((len(qs), n, n))
+        for k, row in enumerate(qs):
+            _call(self._kernel.mass(self._ints, self._doubles, np.ascontiguousarray(row), M[k]))
+        B = np.broadcast_to(self._B, shape + self._B.shape)
+        return M.reshape(shape + (n, n)), -out.reshape(shape + (n,)), B
+
+
+def small_source(pl, robot) -> str:
+    """The laws (scalar) and efforts (vectorized) of ``pl``, and the prescribed
+    motion: the generated Python a GenericModel needs."""
+    from .. import trajectory
+    from ..recursive import PY_HEADER, _python_function
+    from ..recursive.emit import VEC_HEADER
+    from ..recursive.trace import Traced, trace_efforts
+
+    efforts = trace_efforts(pl)
+    laws = Traced("laws", efforts.args, efforts.statements, efforts.outputs, efforts.counts)
+    vector = "\n".join(_python_function(efforts, True, "Efforts under the control laws."))
+    for name in ("sin", "cos", "sqrt", "tanh"):
+        vector = vector.replace(f"_{name}(", f"_v{name}(")
+    no_laws = all(x.is_zero() for x in efforts.outputs["tau"])
+    return "\n".join([PY_HEADER, VEC_HEADER,
+                      *_python_function(laws, False, "Efforts under the control laws."),
+                      vector, f"NO_LAWS = {no_laws}", ""]) + trajectory.motion_source(robot)
+
+
+def first_run(robot, pl, info, full, background) -> GenericModel | None:
+    """A GenericModel for a cold run of ``robot`` (its plan ``pl``), starting
+    ``background()`` (the robot's own code, generated, stored and compiled) in a
+    forked process; None when the kernel cannot serve (``enabled``, no fork, no
+    kernel, or tables that cannot hold the robot): the caller goes on as before."""
+    if not (enabled() and hasattr(os, "fork")):
+        return None
+    tables, _ = pack(pl)
+    if tables is None:
+        return None
+    module = kernel()
+    if module is None:
+        return None
+    model = GenericModel(info, pl, tables, module, small_source(pl, robot), full)
+    _fork(background)
+    return model
+
+
+def _fork(work) -> None:
+    """Run ``work()`` in a detached grandchild at the lowest priority, its output
+    discarded; this process waits only for the short-lived child."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    pid = os.fork()
+    if pid:
+        os.waitpid(pid, 0)
+        return
+    try:                                          # the child: detach, fork, leave
+        os.setsid()
+        if os.fork():
+            os._exit(0)
+        os.nice(19)
+        null = os.open(os.devnull, os.O_RDWR)
+        for fd in (0, 1, 2):
+            os.dup2(null, fd)
+        work()
+    finally:
+        os._exit(0)

@@ -1,0 +1,83 @@
+"""A robot's numeric tables, as the generic kernel (``kernel.c``) reads them.
+
+``pack(plan)`` gives ``Tables`` (the integer and double arrays laid out as the
+top of kernel.c says), or None with the reason when the kernel cannot serve
+the robot: external loads, a joint type other than revolute, prismatic or
+fixed, or a joint displacement that is not affine in the coordinates
+(theta = A q + c; nonlinear couplings stay with the generated code).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: kernel.c's joint kinds
+KINDS = {"fixed": 0, "revolute": 1, "prismatic": 2}
+#: MODE: theta = q + c; A square and invertible; otherwise (CRBA + Cholesky)
+IDENTITY, INVERTIBLE, GENERAL = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class Tables:
+    ints: np.ndarray              # int32
+    doubles: np.ndarray           # float64
+    A: np.ndarray                 # d(theta)/dq, (moving joints, n)
+    actuator_joint: tuple[int, ...]
+    mode: int
+
+
+def affine_map(pl) -> tuple[np.ndarray, np.ndarray] | None:
+    """(A, c) with theta = A q + c for the moving joints, None when a displacement
+    is not affine in the coordinates (its gradient depends on q)."""
+    import sympy as sp
+
+    n, rows, offsets = pl.n, [], []
+    zero = {sp.Symbol(f"_q{k}", real=True): sp.S.Zero for k in range(n)}
+    for displacement, grad, _ in pl.joint_expressions():
+        if any(g.free_symbols for g in grad):
+            return None
+        offset = sp.sympify(displacement).xreplace(zero)
+        if offset.free_symbols:               # e.g. t in a displacement
+            return None
+        rows.append([float(g) for g in grad])
+        offsets.append(float(offset))
+    return np.array(rows, dtype=float).reshape(len(rows), n), np.array(offsets, dtype=float)
+
+
+def pack(pl) -> tuple[Tables | None, str]:
+    """(Tables, "") for ``recursive.plan`` ``pl``, or (None, why not)."""
+    if pl.loads:
+        return None, "external loads"
+    if not pl.moving or pl.n == 0:
+        return None, "no moving joint"
+    words = [b.joint_type.word for b in pl.bodies]
+    if any(w not in KINDS for w in words):
+        return None, "a joint type the kernel does not know"
+    if any(b.parent is not None and b.parent >= i for i, b in enumerate(pl.bodies)):
+        return None, "bodies not listed parents first"
+    joint_map = affine_map(pl)
+    if joint_map is None:
+        return None, "a joint displacement that is not affine in the coordinates"
+    A, c = joint_map
+    nm, n = A.shape
+    if nm == n and np.array_equal(A, np.eye(n)):
+        mode, extra = IDENTITY, []
+    elif nm == n and abs(np.linalg.det(A)) > 1e-12:
+        mode, extra = INVERTIBLE, [np.linalg.inv(A).ravel()]
+    else:
+        mode, extra = GENERAL, []
+    ints = [len(pl.bodies), n, nm, mode]
+    doubles = [np.asarray(pl.gravity, dtype=float)]
+    for i, b in enumerate(pl.bodies):
+        ints += [-1 if b.parent is None else b.parent, KINDS[words[i]],
+                 -1 if b.joint is None else b.joint]
+        doubles += [np.array(b.C, dtype=float).T.ravel(), b.origin, b.axis, [b.mass], b.h,
+                    np.array(b.I_O, dtype=float).ravel()]
+    for body in pl.moving:
+        b = pl.bodies[body]
+        doubles.append([b.damping, b.friction, b.friction_velocity, b.stiffness, b.rest])
+    doubles += [A.ravel(), c, *extra]
+    return Tables(np.array(ints, dtype=np.int32),
+                  np.concatenate([np.asarray(d, dtype=float).ravel() for d in doubles]),
+                  A, tuple(pl.actuator_joint), mode), ""

@@ -1,0 +1,286 @@
+"""A measured motion: q(t) sampled in a CSV file, with rates and accelerations.
+
+The file has a header row and the columns of ``inverse.csv``: ``t`` (s), each
+coordinate by its name, optionally every rate ``d<name>`` and every
+acceleration ``dd<name>``; other columns are ignored (efforts, say, which
+identification reads with ``read_table``).  Times must increase; every value
+must be a finite number.
+
+Rates and accelerations the file does not give come from a Savitzky-Golay
+differentiator (``Differentiator``): at each sample, the least-squares
+polynomial of degree ``order`` through the ``window`` samples centred on it
+(the first and last window at the ends), differentiated at that sample.  On
+uniformly sampled times (steps equal to 1e-6 relative) this is
+``scipy.signal.savgol_filter(deriv=1, 2, mode="interp")``; otherwise the same
+local fit in the samples' own times.  Positions are used as measured.  The
+filter is centred, so it has no lag; at interior samples it scales the
+derivatives of a sinusoid of frequency f by 1 + ``bias(f, step, window, order,
+deriv)``, a real factor computed exactly from the filter's coefficients, and
+independent noise of standard deviation sigma on q reaches the derivatives
+multiplied by ``noise_gain``.
+
+``MeasuredMotion(t)`` gives q, dq, ddq at any time between the first and last
+sample: the piecewise quintic through the samples with those values as its
+value, first and second derivative (``scipy.interpolate.BPoly``), so it is
+exact at the samples and its own derivatives are its rates and accelerations.
+"""
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ModelError, SettingError
+
+DEFAULT_WINDOW = 21          # samples of the differentiator's local fit
+DEFAULT_ORDER = 3            # its polynomial degree
+UNIFORM = 1e-6               # largest relative spread of the time steps treated as uniform
+CHUNK = 4096                 # samples per batch of the non-uniform local fits
+
+
+@dataclass(frozen=True)
+class Differentiator:
+    """Savitzky-Golay: ``window`` (odd, > ``order``) samples, polynomial degree ``order``."""
+    window: int = DEFAULT_WINDOW
+    order: int = DEFAULT_ORDER
+
+    def __post_init__(self):
+        if isinstance(self.order, bool) or not isinstance(self.order, int) or not (
+                2 <= self.order <= 10):
+            raise SettingError("smoothing_order", "must be a whole number from 2 to 10 "
+                                                  "(accelerations need degree 2 or more), "
+                                                  f"got {self.order!r}")
+        if isinstance(self.window, bool) or not isinstance(self.window, int) or (
+                self.window % 2 == 0 or self.window <= self.order):
+            raise SettingError("smoothing_window", "must be an odd whole number of samples "
+                                                   f"greater than the order {self.order}, "
+                                                   f"got {self.window!r}")
+
+    def describe(self) -> str:
+        return f"Savitzky-Golay, {self.window} samples, degree {self.order}"
+
+    def derivatives(self, t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(dy/dt, d2y/dt2) of the samples y (N, ...) at times t (N,), increasing."""
+        steps = np.diff(t)
+        h = float(steps.mean())
+        if np.ptp(steps) <= UNIFORM * h:
+            from scipy.signal import savgol_filter
+
+            return tuple(savgol_filter(y, self.window, self.order, deriv=d, delta=h, axis=0,
+                                       mode="interp") for d in (1, 2))
+        return local_fit(t, y, self.window, self.order)
+
+
+def local_fit(t: np.ndarray, y: np.ndarray, window: int, order: int):
+    """(dy/dt, d2y/dt2) at every sample by the least-squares polynomial of degree
+    ``order`` in (t - t_k) through the ``window`` samples centred on sample k (the
+    first or last ``window`` samples near the ends): Savitzky-Golay in the samples'
+    own times."""
+    N, half = len(t), window // 2
+    first = np.clip(np.arange(N) - half, 0, N - window)
+    shape = y.shape[1:]
+    flat = y.reshape(N, -1)
+    out = np.empty((2, N, flat.shape[1]))
+    powers = np.arange(order + 1)
+    for begin in range(0, N, CHUNK):
+        rows = np.arange(begin, min(N, begin + CHUNK))
+        index = first[rows, None] + np.arange(window)            # (rows, window)
+        scale = t[index[:, -1]] - t[index[:, 0]]                 # for conditioning
+        s = (t[index] - t[rows, None]) / scale[:, None]
+        A = s[..., None] ** powers                               # (rows, window, order+1)
+        coefficients = np.linalg.pinv(A) @ flat[index]           # (rows, order+1, columns)
+        out[0, rows] = coefficients[:, 1] / scale[:, None]
+        out[1, rows] = 2 * coefficients[:, 2] / scale[:, None] ** 2
+    return out[0].reshape((N, *shape)), out[1].reshape((N, *shape))
+
+
+def bias(frequency, step: float, window: int = DEFAULT_WINDOW, order: int = DEFAULT_ORDER,
+         deriv: int = 1):
+    """The relative error of the interior Savitzky-Golay derivative of order ``deriv``
+    of a sinusoid of ``frequency`` (Hz, scalar or array) sampled every ``step`` s:
+    the estimate is (1 + bias) times the exact derivative, bias real (the filter is
+    symmetric, so there is no lag).  From the filter's coefficients c_j
+    (``scipy.signal.savgol_coeffs``), which reproduce polynomials of degree
+    <= ``order`` exactly: bias = sum_j c_j r(z_j) / (i w)^deriv with z_j = i w x_j,
+    x_j = (j - window // 2) step, and r(z) = e^z minus its Taylor polynomial of degree
+    ``order`` (summed as a series where |z| <= 2, so that small biases are not lost to
+    rounding)."""
+    from scipy.signal import savgol_coeffs
+
+    omega = 2 * np.pi * np.asarray(frequency, dtype=float)
+    c = savgol_coeffs(window, order, deriv=deriv, delta=step, use="dot")
+    z = 1j * np.multiply.outer(omega, (np.arange(window) - window // 2) * step)
+    term = z ** (order + 1) / math.factorial(order + 1)
+    series = term.copy()
+    for m in range(order + 2, order + 40):
+        term = term * z / m
+        series = series + term
+    direct = np.exp(z) - sum(z ** m / math.factorial(m) for m in range(order + 1))
+    remainder = np.where(np.abs(z) <= 2, series, direct)
+    return ((remainder @ c) / (1j * omega) ** deriv).real
+
+
+def noise_gain(step: float, window: int = DEFAULT_WINDOW, order: int = DEFAULT_ORDER,
+               deriv: int = 1) -> float:
+    """Standard deviation of the interior derivative estimate per unit standard
+    deviation of independent noise on the samples: |coefficients|_2."""
+    from scipy.signal import savgol_coeffs
+
+    return float(np.linalg.norm(savgol_coeffs(window, order, deriv=deriv, delta=step)))
+
+
+@dataclass(frozen=True, eq=False)
+class Table:
+    """Columns of a measured CSV, by name (the ones asked for), and the file's name."""
+    source: str
+    columns: dict
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.columns
+
+
+def read_table(path, required, optional=(), note: str = "") -> Table:
+    """The columns ``required`` (``t`` first: s, increasing) and those of ``optional``
+    the file has, from a CSV file with a header row; every one of their values a
+    finite number.  Other columns are not read.  ModelError naming the file, line
+    and column, and what is allowed (``note`` added to the expected columns),
+    otherwise."""
+    source = str(path)
+    if not Path(path).is_file():
+        raise ModelError(f"no such file (expected a CSV with columns {', '.join(required)})",
+                         source=source)
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as handle:
+            lines = list(csv.reader(handle))
+    except (OSError, UnicodeDecodeError, csv.Error) as err:
+        raise ModelError(f"cannot read it as CSV text ({getattr(err, 'strerror', None) or err})",
+                         source=source) from None
+    rows = [(number, row) for number, row in enumerate(lines, 1) if any(f.strip() for f in row)]
+    if not rows:
+        raise ModelError(f"is empty: expected a header row ({', '.join(required)}) and one "
+                         "row of numbers per sample", source=source)
+    line, header = rows[0][0], [name.strip() for name in rows[0][1]]
+    missing = [name for name in required if name not in header]
+    if missing:
+        raise ModelError(f"no column {', '.join(missing)}: expected {', '.join(required)}"
+                         f"{note}, found {', '.join(header) or 'an empty header'}",
+                         source=source, line=line)
+    wanted = [name for name in (*required, *optional) if name in header]
+    for name in wanted:
+        if header.count(name) > 1:
+            raise ModelError(f"column {name} appears {header.count(name)} times; give it "
+                             "once", source=source, line=line)
+    index = [header.index(name) for name in wanted]
+    values = np.empty((len(rows) - 1, len(wanted)))
+    for k, (number, row) in enumerate(rows[1:]):
+        if len(row) != len(header):
+            raise ModelError(f"{len(row)} values, the header has {len(header)} columns",
+                             source=source, line=number)
+        for j, column in enumerate(index):
+            text = row[column].strip()
+            try:
+                value = float(text)
+            except ValueError:
+                value = math.nan
+            if not math.isfinite(value):
+                raise ModelError(f"must be a finite number, got {text!r}", source=source,
+                                 line=number, path=f"column {header[column]}")
+            values[k, j] = value
+    table = Table(source, dict(zip(wanted, values.T)))
+    t = table["t"]
+    back = np.flatnonzero(np.diff(t) <= 0)
+    if len(back):
+        k = int(back[0]) + 1
+        raise ModelError(f"times must increase, got {t[k]:g} after {t[k - 1]:g}",
+                         source=source, line=rows[k + 1][0], path="column t")
+    return table
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredMotion:
+    """q, dq, ddq at the measured samples (arrays (N, n)) and between them.
+
+    ``given``: which of "dq", "ddq" the file gave; the others come from
+    ``differentiator``."""
+    source: str
+    names: tuple[str, ...]
+    t: np.ndarray
+    q: np.ndarray
+    dq: np.ndarray
+    ddq: np.ndarray
+    given: tuple[str, ...]
+    differentiator: Differentiator
+    kind: str = "measured"
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+    @property
+    def differentiated(self) -> tuple[str, ...]:
+        return tuple(k for k in ("dq", "ddq") if k not in self.given)
+
+    def describe(self) -> str:
+        """How the rates and accelerations were obtained, in words."""
+        if not self.differentiated:
+            return "rates and accelerations as given"
+        what = " and ".join({"dq": "rates", "ddq": "accelerations"}[k]
+                            for k in self.differentiated)
+        return f"{what} by {self.differentiator.describe()}"
+
+    def __call__(self, t):
+        """q, dq, ddq at ``t`` (scalar or array, within the samples' times): arrays of
+        shape t.shape + (n,), the samples themselves at the sample times."""
+        return tuple(p(t) for p in self._spline)
+
+    @cached_property
+    def _spline(self):
+        """The piecewise quintic with value q, slope dq, curvature ddq at every sample,
+        and its two derivatives."""
+        from scipy.interpolate import BPoly
+
+        spline = BPoly.from_derivatives(self.t, np.stack([self.q, self.dq, self.ddq], 1))
+        return spline, spline.derivative(), spline.derivative(2)
+
+
+def read_motion(path, names, differentiator: Differentiator | None = None) -> MeasuredMotion:
+    """The motion of coordinates ``names`` from a CSV (``read_table``): their columns,
+    every ``d<name>`` / ``dd<name>`` when the file gives all of them, else
+    differentiated by ``differentiator`` (default: ``Differentiator()``)."""
+    differentiator = differentiator or Differentiator()
+    names = tuple(names)
+    table = read_table(path, ("t", *names), [p + n for p in ("d", "dd") for n in names],
+                       " (the robot's coordinates; optionally d<coordinate> and "
+                       "dd<coordinate> for each)")
+    t = table["t"]
+    columns = {}
+    for prefix in ("d", "dd"):
+        present = [name for name in names if prefix + name in table]
+        if present and len(present) != len(names):
+            absent = [prefix + name for name in names if name not in present]
+            raise ModelError(f"has {', '.join(prefix + n for n in present)} but not "
+                             f"{', '.join(absent)}: give every {prefix}<coordinate> column "
+                             "or none", source=table.source)
+        if present:
+            columns[prefix] = np.stack([table[prefix + n] for n in names], -1)
+    need = 2 if len(columns) == 2 else differentiator.window
+    if len(t) < need:
+        raise ModelError(f"{len(t)} sample{'s' * (len(t) != 1)}: "
+                         + (f"the differentiator ({differentiator.describe()}) "
+                            if need > 2 else "a motion ") + f"needs at least {need}",
+                         source=table.source)
+    q = np.stack([table[n] for n in names], -1)
+    if len(columns) < 2:
+        rates, accelerations = differentiator.derivatives(t, q)
+        columns.setdefault("d", rates)
+        columns.setdefault("dd", accelerations)
+    given = tuple(k for k, prefix in (("dq", "d"), ("ddq", "dd")) if prefix + names[0] in table)
+    return MeasuredMotion(table.source, names, t, q, columns["d"], columns["dd"], given,
+                          differentiator)

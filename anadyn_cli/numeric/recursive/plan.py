@@ -1,0 +1,153 @@
+"""The robot with its numbers folded in, in the internal symbols the recursions
+trace: _t, _q{k} (coordinates), _u{k} (their rates), _w{k} (accelerations).
+
+Per moving joint, its displacement theta(q), the rows of J = d(theta)/dq and
+the Hessian term h = dq^T (d^2 theta/dq^2) dq, so that
+
+    dtheta = J dq,    ddtheta = J ddq + h.
+
+Mass properties about the body origin: m, h = m c, I_O = I_c + m(|c|^2 1 - c c^T).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from ...model.joints import JointType
+from ...model.names import GROUND
+from ...model.robot import Robot
+from ...symbolic.kinematics import rpy_rotation
+from ..ir import as_expr
+
+
+@dataclass
+class BodyPlan:
+    name: str
+    parent: int | None
+    joint_type: JointType            # what the joint does (``model.joints``)
+    axis: list[float]
+    C: list[list[float]]             # rpy rotation, joint axes -> parent axes
+    C_identity: bool
+    origin: list[float]
+    mass: float
+    h: list[float]                   # m c
+    com: list[float]
+    I_O: list[list[float]]           # inertia about the origin, body axes
+    joint: int | None                # index among the moving joints
+    displacement: sp.Expr | None     # in internal coordinate symbols
+    damping: float = 0.0
+    friction: float = 0.0
+    friction_velocity: float = 0.01
+    stiffness: float = 0.0
+    rest: float = 0.0
+
+
+@dataclass
+class LoadPlan:
+    body: int
+    point: list[sp.Expr]
+    force: list[sp.Expr]
+    torque: list[sp.Expr]
+    frame: str
+
+
+@dataclass
+class Plan:
+    """The robot with numbers folded, in internal symbols: _t, _q{k}, _u{k} (rates),
+    _w{k} (accelerations)."""
+    robot_name: str
+    coordinates: tuple[str, ...]
+    efforts: tuple[str, ...]
+    bodies: list[BodyPlan]
+    moving: list[int]                       # body index of each moving joint
+    gravity: list[float]
+    actuator_joint: list[int]               # moving-joint index of each actuator
+    laws: list[sp.Expr]                     # tau_k(t, q, dq) (zeros without controller)
+    loads: list[LoadPlan] = field(default_factory=list)
+
+    @property
+    def n(self) -> int:
+        return len(self.coordinates)
+
+    def joint_expressions(self):
+        """Per moving joint: theta(q), dtheta/dq (one entry per coordinate) and
+        h = dq^T (d^2 theta/dq^2) dq, as SymPy expressions (computed once)."""
+        if not hasattr(self, "_joint_expressions"):
+            qs = [sp.Symbol(f"_q{k}", real=True) for k in range(self.n)]
+            us = [sp.Symbol(f"_u{k}", real=True) for k in range(self.n)]
+            out = []
+            for b in self.moving:
+                d = self.bodies[b].displacement
+                present = d.free_symbols
+                grad = [sp.diff(d, qk) if qk in present else sp.Integer(0) for qk in qs]
+                hess = sum((us[r] * us[s] * sp.diff(grad[r], qs[s])
+                            for r in range(self.n) if grad[r].free_symbols
+                            for s in range(self.n) if qs[s] in grad[r].free_symbols),
+                           sp.Integer(0))
+                out.append((d, grad, sp.expand(hess) if hess != 0 else hess))
+            self._joint_expressions = out
+        return self._joint_expressions
+
+
+def _num(expr) -> float:
+    return float(as_expr(expr).evalf(30))
+
+
+def plan(robot: Robot) -> Plan:
+    """The robot's numbers (parameters substituted) and expressions in internal symbols."""
+    values = robot.parameter_substitution()
+    internal = {}
+    for k, c in enumerate(robot.coordinates):
+        internal[c.symbol] = sp.Symbol(f"_q{k}", real=True)
+        internal[c.rate_symbol] = sp.Symbol(f"_u{k}", real=True)
+    internal[sp.Symbol("t", real=True)] = sp.Symbol("_t", real=True)
+
+    def expr(e):
+        return as_expr(e).xreplace(values).xreplace(internal)
+
+    index = {b.name: i for i, b in enumerate(robot.bodies)}
+    bodies, moving = [], []
+    for body in robot.bodies:
+        joint = body.joint
+        parent = None if body.parent == GROUND else index[body.parent]
+        C = rpy_rotation([expr(a) for a in joint.rpy])
+        Cf = [[_num(C[i, j]) for j in range(3)] for i in range(3)]
+        mass = _num(expr(body.mass))
+        com = [_num(expr(c)) for c in body.com]
+        I_c = [[_num(expr(body.inertia[i, j])) for j in range(3)] for i in range(3)]
+        c2 = sum(c * c for c in com)
+        I_O = [[I_c[i][j] + mass * ((c2 if i == j else 0.0) - com[i] * com[j])
+                for j in range(3)] for i in range(3)]
+        kind = joint.joint_type
+        j_index = None
+        if kind.moving:
+            j_index = len(moving)
+            moving.append(len(bodies))
+        bodies.append(BodyPlan(
+            name=body.name, parent=parent, joint_type=kind,
+            axis=[_num(expr(a)) for a in joint.axis], C=Cf,
+            C_identity=(C == sp.eye(3)),
+            origin=[_num(expr(o)) for o in joint.origin], mass=mass,
+            h=[mass * c for c in com], com=com, I_O=I_O, joint=j_index,
+            displacement=expr(joint.displacement) if kind.moving else None,
+            damping=_num(expr(getattr(joint, "damping", 0))),
+            friction=_num(expr(getattr(joint, "friction", 0))),
+            friction_velocity=_num(expr(getattr(joint, "friction_velocity", 0.01))),
+            stiffness=_num(expr(getattr(joint, "stiffness", 0))),
+            rest=_num(expr(getattr(joint, "rest", 0)))))
+    joint_of_body = {b: j for j, b in enumerate(moving)}
+    actuator_joint = [joint_of_body[index[a.body]] for a in robot.actuators]
+    if robot.controller is None:
+        laws = [sp.Integer(0)] * len(robot.actuators)
+    else:
+        gains = {sp.Symbol(k, real=True): v for k, v in robot.controller.gains.items()}
+        laws = [expr(robot.controller.laws[a.name].xreplace(values).xreplace(gains))
+                for a in robot.actuators]
+    loads = [LoadPlan(index[ld.body], [expr(p) for p in ld.point], [expr(f) for f in ld.force],
+                      [expr(m) for m in ld.torque], ld.frame)
+             for ld in getattr(robot, "loads", ())]
+    return Plan(robot_name=robot.name, coordinates=tuple(c.name for c in robot.coordinates),
+                efforts=tuple(a.name for a in robot.actuators), bodies=bodies, moving=moving,
+                gravity=[_num(expr(g)) for g in robot.gravity], actuator_joint=actuator_joint,
+                laws=laws, loads=loads)

@@ -1,0 +1,263 @@
+"""Trajectory optimization (``anadyn optimize``): rest to rest between two poses,
+minimizing effort or time under the robot file's joint limits.
+
+Direct collocation, Hermite-Simpson (separated form), on N intervals of length
+h = T/N with the state x = [q, dq] and the efforts u at the knots and the
+interval midpoints, the dynamics f(t, x, u) = [dq, ddq] being the CasADi
+function of anadyn's traced forward dynamics (``output.export.casadi``):
+
+    x_mid   = (x_k + x_k+1)/2 + h/8 (f_k - f_k+1)
+    x_k+1   = x_k + h/6 (f_k + 4 f_mid + f_k+1)
+
+so that q(t) on each interval is the cubic Hermite interpolant of q and dq at
+its ends, and the efforts are quadratic through u_k, u_mid, u_k+1.  Objective
+``effort``: the Simpson sum of |u|^2 dt over [0, T], T given; ``time``: T.
+Constraints at every knot and midpoint: the joints' position bounds on
+theta(q), their rate bounds on dtheta/dt, the actuators' effort bounds (the
+file's ``limits``, imposed ``BACKOFF`` inside them); start and goal at rest.  IPOPT (shipped with CasADi)
+solves it; ``defect`` is the largest collocation residual, ``margins`` the
+smallest distance of every bounded quantity to its bound over the points.
+Needs the optional extra ``casadi``.
+"""
+from __future__ import annotations
+
+import operator
+from dataclasses import dataclass, field
+from functools import reduce
+from pathlib import Path
+
+import numpy as np
+
+from .. import files as output
+from ..errors import ModelError, NumericalError, SettingError
+from ..model.info import RobotInfo
+
+OBJECTIVES = ("effort", "time")
+#: the operations of ``model.info.expression_tree`` nodes, in CasADi
+OPERATIONS = {"+": operator.add, "*": operator.mul, "**": operator.pow, "sin": "sin",
+              "cos": "cos", "tan": "tan", "asin": "asin", "acos": "acos", "atan": "atan",
+              "atan2": "atan2", "sinh": "sinh", "cosh": "cosh", "tanh": "tanh", "exp": "exp",
+              "log": "log", "Abs": "fabs", "sign": "sign", "Min": "fmin", "Max": "fmax"}
+MAX_INTERVALS = 200
+#: the bounds are imposed this much (relative) inside the file's, so that IPOPT's
+#: constraint tolerance never puts a point beyond them
+BACKOFF = 1e-6
+
+
+@dataclass
+class OptimizeResult:
+    robot: str
+    coordinates: list[str]
+    efforts: list[str]
+    objective: str
+    status: str                      # IPOPT's return status
+    success: bool
+    iterations: int
+    cost: float
+    intervals: int
+    t: np.ndarray                    # (2N+1,) knots and midpoints
+    q: np.ndarray                    # (2N+1, n)
+    dq: np.ndarray
+    ddq: np.ndarray
+    u: np.ndarray                    # (2N+1, m)
+    defect: float
+    goal_error: float                # max |q(T) - goal|, |dq(T)|
+    margins: list[dict] = field(default_factory=list)
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1])
+
+
+def _tree(ca, node, values: dict):
+    if isinstance(node, (int, float)):
+        return float(node)
+    if isinstance(node, str):
+        return values[node]
+    operation, *arguments = node
+    function = OPERATIONS[operation]
+    function = getattr(ca, function) if isinstance(function, str) else function
+    return reduce(function, [_tree(ca, a, values) for a in arguments])
+
+
+def _bounded(ca, info: RobotInfo, q, dq, u) -> list[tuple[str, str, object, float, float]]:
+    """(name, quantity, value, lower, upper) for every bound of the file."""
+    values = {c.name: q[i] for i, c in enumerate(info.coordinates)}
+    values.update({"d" + c.name: dq[i] for i, c in enumerate(info.coordinates)})
+    found = []
+    for joint in info.joint_limits:
+        if joint.lower is not None or joint.upper is not None:
+            found.append((joint.label, "position", _tree(ca, joint.displacement, values),
+                          -np.inf if joint.lower is None else joint.lower,
+                          np.inf if joint.upper is None else joint.upper))
+        if joint.velocity is not None:
+            found.append((joint.label, "rate", _tree(ca, joint.rate, values),
+                          -joint.velocity, joint.velocity))
+    for k, actuator in enumerate(info.actuators):
+        if actuator.effort_limit is not None:
+            found.append((actuator.name, "effort", u[k], -actuator.effort_limit,
+                          actuator.effort_limit))
+    return found
+
+
+def endpoints(robot, goal: dict | None, start: dict | None) -> tuple[np.ndarray, np.ndarray]:
+    """Start and goal poses: given, else the file's trajectory ``from`` / ``to``, else
+    (start) the initial values; ModelError for an unknown coordinate or no goal."""
+    names = [c.name for c in robot.coordinates]
+    section = robot.trajectory if robot.trajectory is not None and robot.trajectory.kind in (
+        "cycloidal", "quintic") else None
+    for given in (goal or {}, start or {}):
+        for name in given:
+            if name not in names:
+                raise SettingError("goal", f"names unknown coordinate {name!r}; coordinates: "
+                                   f"{', '.join(names)}")
+    q0 = np.array([float((start or {}).get(c.name, section.start.get(c.name, c.initial)
+                                               if section else c.initial))
+                   for c in robot.coordinates])
+    if goal is None and section is None:
+        raise SettingError("goal", "is missing: give the goal pose (the file has no "
+                           "cycloidal or quintic trajectory to take it from)")
+    end = goal if goal is not None else section.end
+    qf = np.array([float(end.get(c.name, q0[i])) for i, c in enumerate(robot.coordinates)])
+    return q0, qf
+
+
+def optimize(robot, goal: dict | None = None, start: dict | None = None,
+             duration: float | None = None, objective: str = "effort", intervals: int = 20,
+             max_iterations: int = 1000, tolerance: float = 1e-10) -> OptimizeResult:
+    """The optimal rest-to-rest motion of ``robot`` (a validated open-chain Robot) from
+    ``start`` to ``goal`` (coordinate -> value; defaults: ``endpoints``) in ``duration``
+    s (objective effort; default the file's trajectory duration) or in least time
+    (``duration`` the first guess).  ModelError (exit 2) for a start or goal outside the
+    position limits; a failed solve comes back with ``success`` False and the best
+    iterate (``raise_if_failed``)."""
+    from ..output.export import casadi as export_casadi
+    from ..output.export.traced import trace
+
+    ca = export_casadi.require()
+    if objective not in OBJECTIVES:
+        raise SettingError("objective", f"must be one of {', '.join(OBJECTIVES)}, not {objective!r}")
+    if not 1 <= intervals <= MAX_INTERVALS:
+        raise SettingError("intervals", f"must be 1 to {MAX_INTERVALS}, got {intervals}")
+    if duration is None and robot.trajectory is not None:
+        duration = float(robot.trajectory.duration)
+    if duration is None and objective == "effort":
+        raise SettingError("duration", "is missing: minimizing effort needs the duration")
+    if duration is not None and not duration > 0:
+        raise SettingError("duration", f"must be positive, got {duration:g}")
+    q0, qf = endpoints(robot, goal, start)
+    info = RobotInfo.from_robot(robot)
+    if objective == "time" and any(a.effort_limit is None for a in info.actuators):
+        raise SettingError("objective", "time needs an effort limit on every actuator "
+                           "(joint limits: effort); without them the least time is zero")
+    n, m = len(q0), len(robot.actuators)
+    zero = np.zeros(n)
+    for label, pose in (("start", q0), ("goal", qf)):
+        for name, quantity, value, lower, upper in _bounded(ca, info, pose, zero, np.zeros(m)):
+            value = float(value)
+            if quantity == "position" and not lower <= value <= upper:
+                raise ModelError(f"unreachable {label}: {name} = {value:g} is outside its "
+                                 f"limits [{lower:g}, {upper:g}]", source=robot.source)
+    fd = export_casadi.functions(trace(robot))["forward_dynamics"]
+    opti = ca.Opti()
+    points = 2 * intervals + 1
+    X = opti.variable(2 * n, points)
+    U = opti.variable(m, points) if m else ca.MX(0, points)
+    T = opti.variable() if objective == "time" else duration
+    h = T / intervals
+    t = [h * j / 2 for j in range(points)]
+    F = [ca.vertcat(X[n:, j], fd(t[j], X[:n, j], X[n:, j], U[:, j])) for j in range(points)]
+    defects = []
+    for k in range(intervals):
+        a, mid, b = 2 * k, 2 * k + 1, 2 * k + 2
+        defects.append(X[:, mid] - (X[:, a] + X[:, b]) / 2 - h / 8 * (F[a] - F[b]))
+        defects.append(X[:, b] - X[:, a] - h / 6 * (F[a] + 4 * F[mid] + F[b]))
+    for d in defects:
+        opti.subject_to(d == 0)
+    opti.subject_to(X[:, 0] == np.concatenate([q0, zero]))
+    opti.subject_to(X[:, -1] == np.concatenate([qf, zero]))
+    for j in range(points):
+        for _, _, value, lower, upper in _bounded(ca, info, X[:n, j], X[n:, j], U[:, j]):
+            if np.isfinite(lower):
+                opti.subject_to(value >= lower + BACKOFF * max(1.0, abs(lower)))
+            if np.isfinite(upper):
+                opti.subject_to(value <= upper - BACKOFF * max(1.0, abs(upper)))
+    if objective == "time":
+        opti.subject_to(T >= 1e-3)
+        opti.set_initial(T, duration if duration is not None else 1.0)
+        opti.minimize(T)
+    else:
+        weights = [1.0 if j in (0, points - 1) else (4.0 if j % 2 else 2.0) for j in range(points)]
+        opti.minimize(h / 6 * sum(w * ca.sumsqr(U[:, j]) for j, w in enumerate(weights)))
+    s = np.linspace(0.0, 1.0, points)
+    opti.set_initial(X, np.vstack([np.outer(q0, 1 - s) + np.outer(qf, s), np.zeros((n, points))]))
+    opti.solver("ipopt", {"print_time": False},
+                {"print_level": 0, "sb": "yes", "max_iter": max_iterations, "tol": tolerance})
+    try:
+        value, success = opti.solve().value, True
+    except RuntimeError:                       # the best iterate, reported as failed
+        value, success = opti.debug.value, False
+    stats = opti.stats()
+    x = np.array(value(X)).reshape(2 * n, points)
+    u = np.array(value(U)).reshape(m, points)
+    T = float(value(T)) if objective == "time" else float(T)
+    result = OptimizeResult(
+        robot.name, [c.name for c in robot.coordinates], [a.name for a in robot.actuators],
+        objective, str(stats.get("return_status", "unknown")), success,
+        int(stats.get("iter_count", 0)), float(value(opti.f)), intervals,
+        np.linspace(0.0, T, points), x[:n].T, x[n:].T,
+        np.array([np.array(value(f)).ravel()[n:] for f in F]), u.T,
+        max(float(np.max(np.abs(np.array(value(d))))) for d in defects),
+        float(max(np.max(np.abs(x[:n, -1] - qf)), np.max(np.abs(x[n:, -1])))))
+    result.margins = _margins(ca, info, result)
+    return result
+
+
+def _margins(ca, info: RobotInfo, result: OptimizeResult) -> list[dict]:
+    """The smallest distance to each bound over the points (negative: beyond it)."""
+    worst: dict = {}
+    for j, at in enumerate(result.t):
+        for name, quantity, v, lower, upper in _bounded(ca, info, result.q[j], result.dq[j],
+                                                        result.u[j]):
+            margin = min(float(v) - lower, upper - float(v))
+            if (name, quantity) not in worst or margin < worst[name, quantity]["margin"]:
+                worst[name, quantity] = {
+                    "name": name, "quantity": quantity, "margin": margin, "t": float(at),
+                    "lower": float(lower) if np.isfinite(lower) else None,
+                    "upper": float(upper) if np.isfinite(upper) else None}
+    return list(worst.values())
+
+
+def to_csv(result: OptimizeResult, path: Path) -> None:
+    """t, q, dq, ddq and the efforts at the knots and midpoints."""
+    names = result.coordinates
+    header = (["t"] + names + ["d" + c for c in names] + ["dd" + c for c in names]
+              + result.efforts)
+    columns = [result.t, *result.q.T, *result.dq.T, *result.ddq.T, *result.u.T]
+    output.write_csv(path, header, columns)
+
+
+def summary(result: OptimizeResult) -> dict:
+    return {"robot": result.robot, "objective": result.objective, "status": result.status,
+            "success": result.success, "iterations": result.iterations, "cost": result.cost,
+            "duration": result.duration, "intervals": result.intervals,
+            "method": "Hermite-Simpson collocation, IPOPT", "defect": result.defect,
+            "goal_error": result.goal_error, "margins": result.margins}
+
+
+@output.one_set
+def write(result: OptimizeResult, out: Path) -> list[Path]:
+    """optimize.csv (the motion ``inverse --motion`` replays) and optimize.json."""
+    out = output.prepare_dir(out)
+    written = [out / "optimize.csv", out / "optimize.json"]
+    to_csv(result, written[0])
+    output.write_json(written[1], summary(result))
+    return written
+
+
+def raise_if_failed(result: OptimizeResult) -> None:
+    """NumericalError (exit 3) with the solver's status when it did not converge."""
+    if not result.success:
+        raise NumericalError(f"optimization failed: IPOPT {result.status} after "
+                             f"{result.iterations} iterations (defect {result.defect:.3g}); "
+                             "the best iterate is written")

@@ -1,0 +1,211 @@
+"""The generic kernel (``anadyn_cli.numeric.generic``): the recursions compiled
+once, over a robot's numeric tables.
+
+- against Pinocchio's ABA, RNEA and CRBA on URDF arms and example-robot-data
+  robots (root welded), 20 random states each, 1e-12 relative;
+- against anadyn's generated code (rhs, inverse dynamics, M F B, efforts) on
+  the YAML robots it serves, 1e-12 (not bit for bit: another order of
+  operations);
+- what it refuses (loads, nonlinear displacements): the generated code runs;
+- a cold run served by the kernel gives the warm run's results to the run's
+  tolerance.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from anadyn_cli import load_robot, robot_from_text
+from anadyn_cli.model.info import RobotInfo
+from anadyn_cli.model.urdf import import_file
+from anadyn_cli.numeric import generic, native, recursive
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from scenes import cubic_text  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+needs_compiler = pytest.mark.skipif(native.unavailable() is not None,
+                                    reason=f"native code: {native.unavailable()}")
+pytestmark = needs_compiler
+
+
+def rel(a, b) -> float:
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return float(np.abs(a - b).max() / max(np.abs(b).max(), 1e-300))
+
+
+@pytest.fixture(scope="module")
+def kernel(tmp_path_factory):
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("ANADYN_CACHE_DIR", str(tmp_path_factory.mktemp("generic") / "cache"))
+        patch.delenv("ANADYN_NATIVE", raising=False)
+        generic._KERNEL.clear()
+        module = generic.kernel()
+        generic._KERNEL.clear()
+    assert module is not None
+    return module
+
+
+def generic_model(robot, module):
+    pl = recursive.plan(robot)
+    tables, why = generic.pack(pl)
+    assert tables is not None, why
+    code = recursive.module_source(recursive.generate(robot))
+    info = RobotInfo.from_robot(robot)
+    reference = native.RecursiveModel(info, code)
+    model = generic.GenericModel(info, pl, tables, module, generic.small_source(pl, robot),
+                                 lambda: reference)
+    return pl, tables, model, reference
+
+
+# ------------------------------------------------------------- Pinocchio --
+
+def erd(path: str) -> Path | None:
+    try:
+        import example_robot_data as e
+        return Path(e.getModelPath(path)) / path
+    except ImportError:
+        base = next((Path(p) / "cmeel.prefix/share/example-robot-data/robots"
+                     for p in sys.path if Path(p, "cmeel.prefix").is_dir()), None)
+        return base / path if base is not None else None
+
+
+URDFS = {"ur5": ROOT / "robots/ur5.urdf", "panda": ROOT / "robots/panda.urdf",
+         "so101": ROOT / "robots/so101.urdf",
+         "ur10": erd("ur_description/urdf/ur10_joint_limited_robot.urdf"),
+         "z1": erd("z1_description/urdf/z1.urdf"),
+         "baxter": erd("baxter_description/urdf/baxter.urdf"),
+         "talos": erd("talos_data/robots/talos_reduced.urdf")}
+
+
+def passive(pl, theta, dtheta) -> np.ndarray:
+    """The joint springs, dampers and friction of the plan (as tracer.passive)."""
+    out = []
+    for j, b in enumerate(pl.moving):
+        p = pl.bodies[b]
+        out.append(-p.damping * dtheta[j] - p.friction * np.tanh(dtheta[j] / p.friction_velocity)
+                   - p.stiffness * (theta[j] - p.rest))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("name", list(URDFS))
+def test_kernel_matches_pinocchio(name, kernel):
+    pin = pytest.importorskip("pinocchio")
+    path = URDFS[name]
+    if path is None or not path.exists():
+        pytest.skip(f"{name}: URDF not installed")
+    robot = robot_from_text(import_file(path, fix_base=True).text, path.name)
+    pl = recursive.plan(robot)
+    tables, why = generic.pack(pl)
+    assert tables is not None, why
+    A, c = generic.tables.affine_map(pl)              # theta = A q + c (mimic joints)
+    model = pin.buildModelFromUrdf(str(path))
+    model.gravity.linear = np.array(pl.gravity)
+    data = model.createData()
+    n, nm = pl.n, len(pl.moving)
+    assert model.nv == nm and model.nq == nm
+
+    def joint_of(body):
+        frame = model.frames[model.getFrameId(pl.bodies[body].name)]
+        return model.joints[getattr(frame, "parentJoint", None) or frame.parent].idx_v
+
+    index = [joint_of(b) for b in pl.moving]
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        q, dq, ddq = (rng.uniform(-1.5, 1.5, n) for _ in range(3))
+        e = rng.uniform(-1.5, 1.5, nm)
+        theta = A @ q + c
+        qp, vp, ap = (np.empty(nm) for _ in range(3))
+        qp[index], vp[index], ap[index] = theta, A @ dq, A @ ddq
+        pas = passive(pl, theta, A @ dq)
+        Mp = pin.crba(model, data, qp)
+        Mp = (np.triu(Mp) + np.triu(Mp, 1).T)[np.ix_(index, index)]
+        out = np.empty(2 * n)
+        assert kernel.rhs(tables.ints, tables.doubles, np.concatenate([q, dq]), e, out) == 0
+        if tables.mode == generic.tables.IDENTITY:
+            ep = np.empty(nm)
+            ep[index] = e + pas
+            expected = pin.aba(model, data, qp, vp, ep)[index]
+        else:                                         # M ddq = A^T (e + passive - bias)
+            bias = pin.rnea(model, data, qp, vp, np.zeros(nm))[index]
+            expected = np.linalg.solve(A.T @ Mp @ A, A.T @ (e + pas - bias))
+        assert rel(out[n:], expected) < 1e-12
+        ID = np.empty(n)
+        kernel.inverse(tables.ints, tables.doubles, 1, np.concatenate([q, dq]), ddq, ID)
+        assert rel(ID, A.T @ (pin.rnea(model, data, qp, vp, ap)[index] - pas)) < 1e-12
+        M = np.empty((n, n))
+        kernel.mass(tables.ints, tables.doubles, q, M)
+        assert rel(M, A.T @ Mp @ A) < 1e-12
+        if tables.mode == generic.tables.IDENTITY and not pas.any():
+            # the Jacobian (forward differences) against Pinocchio's ABA derivatives
+            J = np.empty((2 * n, 2 * n))
+            kernel.jac(tables.ints, tables.doubles, np.concatenate([q, dq]), e, J)
+            ep = np.empty(nm)
+            ep[index] = e
+            d_q, d_v, _ = pin.computeABADerivatives(model, data, qp, vp, ep)
+            assert rel(J[n:, :n], d_q[np.ix_(index, index)]) < 1e-5
+            assert rel(J[n:, n:], d_v[np.ix_(index, index)]) < 1e-5
+            assert np.array_equal(J[:n], np.eye(2 * n)[n:])
+
+
+# ------------------------------------------------- anadyn's generated code --
+
+@pytest.mark.parametrize("path", ["robots/rr.yaml", "robots/rrt.yaml", "configs/chain6.yaml"])
+def test_kernel_matches_generated_code(path, kernel):
+    robot = load_robot(ROOT / path)
+    pl, tables, model, reference = generic_model(robot, kernel)
+    n = pl.n
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        t, x, w = 0.3, rng.uniform(-1, 1, 2 * n), rng.uniform(-1, 1, n)
+        assert rel(model.rhs(t, x), reference.rhs(t, x)) < 1e-12
+        assert rel(model.demand(t, x[:n], x[n:], w)[0], reference.demand(t, x[:n], x[n:], w)[0]) < 1e-12
+        e = rng.uniform(-1, 1, len(pl.efforts))
+        assert rel(model.driven_accelerations(t, x, e),
+                   reference.driven_accelerations(t, x, e)) < 1e-12
+        for a, b in zip(model.mfb(t, x[:n, None], x[n:, None]),
+                        reference.mfb(t, x[:n, None], x[n:, None])):
+            assert rel(a, b) < 1e-12
+        assert rel(model.jacobian(t, x), reference.jacobian(t, x)) < 1e-5
+    q = rng.uniform(-1, 1, (n, 5))
+    assert rel(model.efforts(np.zeros(5), q, q), reference.efforts(np.zeros(5), q, q)) < 1e-15
+    # energy is not the kernel's: the generated Python, built when first asked for
+    assert rel(model.energy(q, q)[1], reference.energy(q, q)[1]) == 0.0
+
+
+def test_what_the_tables_cannot_hold():
+    loads = load_robot(ROOT / "robots/rrt_friction.yaml")
+    assert generic.pack(recursive.plan(loads)) == (None, "external loads")
+    cubic = robot_from_text(cubic_text(0.4), "cubic.yaml")
+    assert generic.pack(recursive.plan(cubic)) == (
+        None, "a joint displacement that is not affine in the coordinates")
+
+
+# ------------------------------------------------------ a cold run, served --
+
+def test_a_cold_run_served_by_the_kernel_gives_the_warm_results(tmp_path, monkeypatch, kernel):
+    """Cold: the kernel runs and the robot's code is generated, stored and
+    compiled (here in this process instead of a forked one); warm: that code.
+    The two trajectories agree to the run's tolerance."""
+    from anadyn_cli.cli import main
+    monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("ANADYN_NATIVE", raising=False)
+    monkeypatch.setattr(generic, "_fork", lambda work: work())
+    generic._KERNEL.clear()
+    runs = []
+    for k in range(2):
+        out = tmp_path / f"run{k}"
+        assert main(["simulate", str(ROOT / "configs/chain6.yaml"), "--t-end", "1",
+                     "--no-plot", "--out", str(out)]) == 0
+        runs.append(out)
+    import json
+    codes = [json.loads((r / "simulate.json").read_text())["code"] for r in runs]
+    assert codes[0].startswith("generic kernel") and codes[1] == "native C (cached)"
+    cold, warm = (np.loadtxt(r / "simulate.csv", delimiter=",", skiprows=1) for r in runs)
+    assert cold.shape == warm.shape
+    assert np.abs(cold - warm).max() < 1e-7 * max(1.0, np.abs(warm).max())
+    monkeypatch.setenv("ANADYN_GENERIC", "0")            # off: the old cold path
+    assert not generic.enabled()

@@ -1,0 +1,162 @@
+"""anadyn optimize: Hermite-Simpson collocation checked by an independent integration of
+Pinocchio's ABA under the optimized efforts, the limits by numeric.limits on the rows."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from anadyn_cli.cli import main
+
+pytest.importorskip("casadi")
+ROBOTS = Path(__file__).resolve().parent.parent / "robots"
+
+
+def _rows(path: Path) -> dict:
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    return {name: data[name] for name in data.dtype.names}
+
+
+def _integrate(accelerations, rows: dict, efforts: list[str], start, span=None) -> np.ndarray:
+    """x at the end of ``span`` [default: the whole motion] of q'' = accelerations(t, q, dq,
+    u(t)) from ``start``, u quadratic on each interval through the knot, midpoint and knot
+    values (as Hermite-Simpson assumes)."""
+    from scipy.integrate import solve_ivp
+
+    t = rows["t"]
+    u = np.column_stack([rows[e] for e in efforts])
+    n = len(start) // 2
+
+    def effort(time):
+        k = min(int(time / (t[2] - t[0])), len(t) // 2 - 1)
+        a, m, b = u[2 * k], u[2 * k + 1], u[2 * k + 2]
+        s = (time - t[2 * k]) / (t[2 * k + 2] - t[2 * k])
+        return a * (1 - s) * (1 - 2 * s) + 4 * m * s * (1 - s) + b * s * (2 * s - 1)
+
+    def rhs(time, x):
+        return np.concatenate([x[n:], accelerations(time, x[:n], x[n:], effort(time))])
+
+    return solve_ivp(rhs, span or (0, t[-1]), start, method="DOP853", rtol=1e-11,
+                     atol=1e-12).y[:, -1]
+
+
+def _optimize(robot: Path, out: Path, *options: str) -> tuple[dict, dict]:
+    assert main(["optimize", str(robot), *options, "--out", str(out)]) == 0
+    summary = json.loads((out / "optimize" / "optimize.json").read_text())
+    assert summary["status"] == "Solve_Succeeded" and summary["defect"] < 1e-9
+    return summary, _rows(out / "optimize" / "optimize.csv")
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_double_pendulum_reaches_goal_under_pinocchio(tmp_path):
+    pin = pytest.importorskip("pinocchio")
+    urdf = ROBOTS / "double_pendulum.urdf"
+    _, rows = _optimize(urdf, tmp_path, "--to", "joint1=1.0,joint2=-0.5", "--duration", "1",
+                        "--intervals", "60")
+    model = pin.buildModelFromUrdf(str(urdf))
+    data = model.createData()
+
+    def aba(t, q, dq, tau):    # the URDF's joint damping 0.05 N m s/rad, which ABA leaves out
+        return pin.aba(model, data, np.asarray(q), np.asarray(dq), tau - model.damping * dq)
+
+    efforts = ["tau_joint1", "tau_joint2"]
+    end = _integrate(aba, rows, efforts, np.zeros(4))
+    assert np.allclose(end, [1.0, -0.5, 0.0, 0.0], atol=5e-3), end   # 3e-3 measured (N = 60)
+    # the collocation's accelerations are Pinocchio's at every point
+    for j in range(len(rows["t"])):
+        q = np.array([rows["joint1"][j], rows["joint2"][j]])
+        dq = np.array([rows["djoint1"][j], rows["djoint2"][j]])
+        ddq = aba(0.0, q, dq, np.array([rows[e][j] for e in efforts]))
+        assert np.allclose(ddq, [rows["ddjoint1"][j], rows["ddjoint2"][j]], atol=1e-8)
+
+
+def test_cartpole_swing_up_under_kane_closed_forms(tmp_path):
+    """The YAML cart-pole (no URDF for Pinocchio): integrated with Kane's closed forms,
+    a different path from the traced recursive dynamics the optimizer uses."""
+    import anadyn
+
+    robot = ROBOTS / "optimize" / "cartpole.yaml"
+    summary, rows = _optimize(robot, tmp_path, "--intervals", "40")
+    kane = anadyn.numeric_model(str(robot), formulation="kane")
+    assert kane.evaluator == "closed-form"
+    end = _integrate(lambda t, q, dq, u: kane.driven_accelerations(t, np.concatenate([q, dq]), u),
+                     rows, ["F"], np.array([0.0, -np.pi / 2, 0.0, 0.0]))
+    assert np.allclose(end, [0.0, np.pi / 2, 0.0, 0.0], atol=5e-3), end   # 2.2e-3 measured
+    assert np.all(np.abs(rows["x"]) <= 1.0) and np.all(np.abs(rows["F"]) <= 20.0)
+    assert {(m["name"], m["quantity"]) for m in summary["margins"]} == {("x", "position"),
+                                                                        ("F", "effort")}
+
+
+@pytest.mark.parametrize("objective", ["effort", "time"])
+def test_rr_swing_respects_limits_and_replays(tmp_path, objective):
+    from anadyn_cli.model import load_robot
+    from anadyn_cli.model.info import RobotInfo
+    from anadyn_cli.numeric import limits
+
+    out = tmp_path / "o"
+    robot = ROBOTS / "optimize" / "rr_swing.yaml"
+    summary, _ = _optimize(robot, out, "--minimize", objective)
+    assert summary["success"] and summary["goal_error"] < 1e-9
+    assert all(m["margin"] > 0 for m in summary["margins"]) and len(summary["margins"]) == 6
+    rows = _rows(out / "optimize" / "optimize.csv")
+    q = np.column_stack([rows["q1"], rows["q2"]])
+    dq = np.column_stack([rows["dq1"], rows["dq2"]])
+    u = np.column_stack([rows["T01z"], rows["T12z"]])
+    info = RobotInfo.from_robot(load_robot(robot))
+    assert limits.check(info, rows["t"], q, dq, u) == []
+    if objective == "time":    # bang-bang: some bound is active (the time is not free)
+        assert min(m["margin"] for m in summary["margins"]) < 1e-3
+    assert np.allclose(q[-1], [np.pi / 4, np.pi / 2]) and np.allclose(q[0], [-np.pi / 2] * 2)
+    assert main(["inverse", str(robot), "--motion", str(out / "optimize" / "optimize.csv"),
+                 "--no-plot", "--out", str(tmp_path / "i")]) == 0
+    replay = _rows(tmp_path / "i" / "inverse.csv")
+    assert np.allclose(replay["T01z"], rows["T01z"], atol=1e-7)
+
+
+def test_unreachable_goal_and_failure(tmp_path, capsys):
+    robot = str(ROBOTS / "optimize" / "rr_swing.yaml")
+    assert main(["optimize", robot, "--to", "q1=4", "--out", str(tmp_path / "a")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"anadyn: error: {robot}: unreachable goal: q1 = 4 is outside its limits "
+                   "[-3.14159, 3.14159]"]
+    assert not (tmp_path / "a").exists()
+    assert main(["optimize", robot, "--to", "q1=2,q2=2.5", "--duration", "0.3",
+                 "--out", str(tmp_path / "b")]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("anadyn: error: optimization failed: IPOPT ")
+    assert not json.loads((tmp_path / "b" / "optimize" / "optimize.json").read_text())["success"]
+    assert main(["optimize", robot, "--to", "q9=1"]) == 2
+    assert "--to names unknown coordinate 'q9'" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_ur5_point_to_point_under_pinocchio_and_limits(tmp_path):
+    pin = pytest.importorskip("pinocchio")
+    from anadyn_cli.model import load_robot
+    from anadyn_cli.model.info import RobotInfo
+    from anadyn_cli.numeric import limits
+
+    urdf = ROBOTS / "ur5.urdf"
+    summary, rows = _optimize(urdf, tmp_path, "--to", "shoulder_pan_joint=1,shoulder_lift_"
+                              "joint=-1,elbow_joint=1.2", "--duration", "2")
+    model = pin.buildModelFromUrdf(str(urdf))
+    data = model.createData()
+    info = RobotInfo.from_robot(load_robot(urdf))
+    names = [c.name for c in info.coordinates]
+    efforts = [a.name for a in info.actuators]
+    q = np.column_stack([rows[c] for c in names])
+    dq = np.column_stack([rows["d" + c] for c in names])
+    # each interval from its first knot reaches the next one: the local error of the
+    # collocation (the whole motion, open loop, drifts away on the wrists' fast modes)
+    t = rows["t"]
+    for k in range(len(t) // 2):
+        end = _integrate(lambda t, q, dq, u: pin.aba(model, data, q, dq, u - model.damping * dq),
+                         rows, efforts, np.concatenate([q[2 * k], dq[2 * k]]),
+                         (t[2 * k], t[2 * k + 2]))
+        assert np.allclose(end, np.concatenate([q[2 * k + 2], dq[2 * k + 2]]), atol=0.1)  # 0.044
+    u = np.column_stack([rows[e] for e in efforts])
+    assert limits.check(info, rows["t"], q, dq, u) == []
+    assert all(m["margin"] > 0 for m in summary["margins"])
