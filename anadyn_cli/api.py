@@ -20,8 +20,6 @@ folder (or by a result's ``to_csv``).  The derivation cache is off unless
 the numbers (``numeric.build``; the command line's ``--formulation`` and
 ``--evaluator``).  Checks are returned, not raised: ``passed`` on the
 result says whether the command would exit 1.
-
-``anadyn view`` (the 3-D viewer) joins this list as ``view`` when it lands.
 """
 from __future__ import annotations
 
@@ -159,8 +157,10 @@ def simulate(robot, formulation: str | None = None, evaluator: str | None = None
 def inverse(robot, formulation: str | None = None, evaluator: str | None = None,
             cache: bool = False, output_step: float | None = None, roundtrip: bool = True,
             roundtrip_tolerance: float | None = None,
-            roundtrip_segment: float | None = None):
-    """Efforts that produce the file's prescribed motion (``anadyn inverse``).
+            roundtrip_segment: float | None = None, motion=None,
+            smoothing_window: int | None = None, smoothing_order: int | None = None):
+    """Efforts that produce the file's prescribed motion, or a measured one
+    (``anadyn inverse [--motion data.csv]``).
 
     :param robot: see ``numeric_model``.
     :param formulation: see ``numeric_model``.
@@ -171,14 +171,26 @@ def inverse(robot, formulation: str | None = None, evaluator: str | None = None,
         how closely it follows the motion.
     :param roundtrip_tolerance: largest allowed tracking error, rad or m [1e-6].
     :param roundtrip_segment: length of the round trip's pieces, s [automatic].
+    :param motion: a CSV of measured motion (the columns of inverse.csv: ``t``, each
+        coordinate, optionally every ``d<q>`` and ``dd<q>``) to use instead of the
+        file's trajectory; rates and accelerations it lacks come from a
+        Savitzky-Golay filter.
+    :param smoothing_window: the filter's window, samples (odd) [21].
+    :param smoothing_order: the filter's polynomial degree [3].
     :returns: an ``InverseResult``: ``t``, ``q``, ``dq``, ``ddq``, ``efforts`` with rows
         as times; ``roundtrip.passed`` says whether the round trip met its tolerance.
     """
+    from .numeric import measured
     from .services.inverse import DEFAULT_TOLERANCE, inverse as run
 
     tolerance = DEFAULT_TOLERANCE if roundtrip_tolerance is None else roundtrip_tolerance
-    return run(numeric_model(robot, formulation, evaluator, cache), step=output_step,
-               roundtrip=roundtrip, tolerance=tolerance, segment=roundtrip_segment)
+    model = numeric_model(robot, formulation, evaluator, cache)
+    samples = None
+    if motion is not None:
+        how = measured.Differentiator.given(smoothing_window, smoothing_order)
+        samples = measured.read_motion(motion, model.coordinates, how)
+    return run(model, step=output_step, roundtrip=roundtrip, tolerance=tolerance,
+               segment=roundtrip_segment, measured=samples)
 
 
 def check(robot, formulation: str | None = None, evaluator: str | None = None,
@@ -301,7 +313,8 @@ def optimize(robot, goal: Mapping[str, float] | None = None,
     :param duration: s; with objective "time" the first guess [the trajectory's duration].
     :param objective: "effort" (integral of the squared efforts) or "time".
     :param intervals: collocation intervals.
-    :param out: folder for optimize.csv and optimize.json; None: write nothing.
+    :param out: folder for optimize.csv, trajectory.yaml, NAME_optimized.yaml (YAML
+        robots) and optimize.json; None: write nothing.
     :returns: an ``OptimizeResult`` (``t``, ``q``, ``dq``, ``ddq``, ``u`` rows at the knots
         and midpoints; ``success``, ``status``, ``defect``, ``margins``); a failed solve is
         returned with ``success`` False and the best iterate, not raised.
@@ -315,7 +328,7 @@ def optimize(robot, goal: Mapping[str, float] | None = None,
                               None if start is None else dict(start), duration, objective,
                               intervals)
     if out is not None:
-        service.write(result, Path(out))
+        service.write(result, Path(out), model.source)
     return result
 
 
@@ -406,6 +419,35 @@ def batch(config, out: str | Path, jobs: int | None = None, scheduler: str | Non
     return result
 
 
+def view(robot, run=None, package_paths: Iterable = (), cache: bool = False,
+         out: Path | str | None = None):
+    """The robot in 3-D (``anadyn view``): its URDF meshes or generated shapes, playing a
+    run with a time slider, or with a slider per coordinate.
+
+    :param robot: a YAML or URDF file, a library name, or a loaded ``Robot``.
+    :param run: a simulate.csv or inverse.csv of this robot to play (columns ``t`` and
+        every coordinate).
+    :param package_paths: folders holding the ROS packages that ``package://`` mesh
+        paths name (ROS_PACKAGE_PATH and pip's example-robot-data are searched too).
+    :param cache: reuse the generated kinematics from the derivation cache.
+    :param out: a folder to write view.html and view.json into.
+    :returns: a ``View``: ``html()`` is the self-contained page; in Jupyter it shows
+        itself inline.
+    """
+    from .model.library import resolve
+    from .services import view as service
+
+    model = load(robot)
+    played = service.read_run(run, [c.name for c in model.coordinates]) if run else None
+    urdf = resolve(robot) if isinstance(robot, (str, Path)) else None
+    result = service.view(model, played,
+                          urdf if urdf is not None and urdf.suffix.lower() == ".urdf" else None,
+                          tuple(package_paths), use_cache=cache)
+    if out is not None:
+        service.write(result, Path(out))
+    return result
+
+
 def show(robot, at: Mapping[str, float] | Iterable[str] = (), cache: bool = False):
     """The robot drawn at its initial pose, or another (``anadyn show``).
 
@@ -442,12 +484,12 @@ def animate(robot, out: str | Path | None = None, motion: str = "simulate",
     :returns: an ``Animation`` (``times``; ``images``: the frames as arrays;
         ``computation``: what computed the motion).
     """
+    from . import errors
     from .errors import ModelError, NumericalError
     from .numeric.frames import frames as kinematics
     from .services import show as service
 
-    if frames < 2:
-        raise ModelError(f"frames must be 2 or more, got {frames}")
+    errors.check("frames", frames)
     if motion not in ("simulate", "inverse"):
         raise ModelError(f"motion must be simulate or inverse, got {motion!r}")
     source = _source(robot)

@@ -196,6 +196,16 @@ def printable(text: str) -> str:
     return "".join(ch if ch.isprintable() else escaped(ch) for ch in text)
 
 
+def shorten(value: object, limit: int = 60) -> str:
+    """``str(value)`` for a one-line message: cut to ``limit`` characters, the last
+    three ``...``, when longer (an integer too long to print is "a huge number")."""
+    try:
+        text = str(value)
+    except ValueError:
+        text = "a huge number"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def display_name(path) -> str:
     """A file's name as messages, generated code and JSON show it: ``printable``."""
     return printable(str(path))

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import CheckFailed, ModelError, NumericalError
+from .progress import uninterrupted
 
 try:
     import fcntl
@@ -144,7 +145,13 @@ class _Staged:
         self.files[target] = temporary
 
     def commit(self) -> None:
-        """Rename every file into place, holding an exclusive lock on each folder."""
+        """Rename every file into place, holding an exclusive lock on each folder; a
+        signal meanwhile stops the command only after the last rename
+        (``progress.uninterrupted``), so a set is never half in place."""
+        with uninterrupted():
+            self._commit()
+
+    def _commit(self) -> None:
         folders = sorted({target.parent for target in self.files}, key=str)
         locks = []
         try:

@@ -8,6 +8,13 @@
         for run in runs:
             step.advance(detail=f"{run.method} rtol {run.rtol:g}")
 
+Work whose parts end in another order than they start (a batch's jobs) opens
+each part with ``start(description, plain=False)`` (a line of its own with its
+own clock on a terminal, nothing in a log), closes it with ``finish`` and
+tells how it ended with ``report(line, keep)`` on the whole task: in a log
+that line is printed at once (one line per finished job); on a terminal it is
+printed above the bars when ``keep`` (a miss stays on screen).
+
 Three modes, chosen once per command (``session``, opened by the CLI):
 
 - ``live``: stderr is a terminal and ``CI`` is not set: a line per running
@@ -65,15 +72,17 @@ def choose_mode(stream=None) -> str:
 
 
 class Task:
-    """A running piece of work; ``advance`` and ``note`` tell how far it is."""
+    """A running piece of work; ``advance`` and ``note`` tell how far it is, ``report``
+    how a part of it ended.  ``plain=False``: shown on a terminal only."""
 
-    def __init__(self, description: str, total: int | None):
-        self.description, self.total = description, total
+    def __init__(self, description: str, total: int | None, plain: bool = True):
+        self.description, self.total, self.plain = description, total, plain
         self.completed, self.detail = 0, ""
         self.start = time.monotonic()
         self.announced = False          # plain: first line printed
         self.last_line = 0.0            # plain: when the last line was printed
         self.live_id = None             # live: rich task id
+        self.session = None             # the session it was started in
 
     def advance(self, step: int = 1, detail: str | None = None) -> None:
         with _lock:
@@ -89,6 +98,13 @@ class Task:
             self.detail = detail
             if _session is not None:
                 _session.changed(self)
+
+    def report(self, line: str, keep: bool = False) -> None:
+        """How a part of the task ended: in ``plain`` mode a line at once, on a terminal
+        a line above the bars that stays when ``keep``."""
+        with _lock:
+            if _session is not None:
+                _session.reported(self, line, keep)
 
     def elapsed(self) -> float:
         return time.monotonic() - self.start
@@ -106,22 +122,34 @@ class Task:
         return ", ".join(parts)
 
 
+def start(description: str, total: int | None = None, plain: bool = True) -> Task:
+    """A task named ``description`` (``total`` steps, if known) running from now until
+    ``finish``; ``plain=False`` shows it on a terminal only."""
+    job = Task(description, total, plain)
+    with _lock:
+        job.session = _session
+        if job.session is not None:
+            job.session.add(job)
+    return job
+
+
+def finish(job: Task, finished: bool = True) -> None:
+    """End ``job`` (``finished=False``: it was stopped)."""
+    if job.session is not None:
+        with _lock:
+            job.session.remove(job, finished)
+
+
 @contextmanager
 def task(description: str, total: int | None = None):
     """Run the body as a task named ``description`` (``total`` steps, if known)."""
-    job = Task(description, total)
-    with _lock:
-        session = _session
-        if session is not None:
-            session.add(job)
+    job = start(description, total)
     finished = False
     try:
         yield job
         finished = True
     finally:
-        if session is not None:
-            with _lock:
-                session.remove(job, finished)
+        finish(job, finished)
 
 
 def active() -> bool:
@@ -179,6 +207,16 @@ class _Session:
         if not self.tasks:
             self._hide()
 
+    def reported(self, job: Task, line: str, keep: bool) -> None:
+        if self.mode == "plain":
+            job.announced, job.last_line = True, time.monotonic()
+            self._write(line)
+        elif self.mode == "live" and keep:
+            if self.live is not None:
+                self.live.console.print(line, markup=False, highlight=False)
+            else:
+                self._write(line)
+
     def changed(self, job: Task) -> None:
         if self.live is not None and job.live_id is not None:
             self.live.update(job.live_id, completed=job.completed, detail=job.detail,
@@ -234,6 +272,8 @@ class _Session:
     def _tick_plain(self) -> None:
         now = time.monotonic()
         for job in self.tasks:
+            if not job.plain:
+                continue
             if not job.announced and job.elapsed() >= PLAIN_DELAY:
                 job.announced, job.last_line = True, now
                 self._write(f"anadyn: {job.description} ... ({job.status()})")

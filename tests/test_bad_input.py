@@ -137,7 +137,7 @@ CASES = [
     case("unquoted-comma-splits-expression", rr("duration: 15,", "duration: max(10, 15),"),
          "{file}:34: trajectory.15): unknown key (a comma or colon inside {...} splits an "
          "expression: quote it); allowed: kind, duration, from, to, expressions, points, "
-         "durations, shape"),
+         "durations, shape, times, q, dq, ddq"),
     # -- missing required keys ------------------------------------------------------
     case("missing-coordinates", without(RR, "coordinates:", "  q1: {initial: -pi/18}       "
                                         "# the text's q1(0); the inverse listing's pi/18 is a "
@@ -197,7 +197,7 @@ CASES = [
          "{file}:26: actuators.T12z: expected a mapping, got the text 'bar2'"),
     case("type-trajectory-kind", rr("kind: cycloidal", "kind: linear"),
          "{file}:34: trajectory.kind: must be one of cycloidal, quintic, expression, waypoints, "
-         "got 'linear'"),
+         "spline, got 'linear'"),
     case("type-method", rr("output_step: 0.01}", "output_step: 0.01, method: rk4}"),
          "{file}:35: simulation.method: must be one of auto, odeint, RK45, RK23, DOP853, "
          "Radau, BDF, LSODA, got 'rk4'"),

@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from anadyn_cli.studies import batch
+from anadyn_cli.studies.batch import running
 from anadyn_cli.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -43,11 +44,13 @@ def test_ci_config_passes(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(ROOT)
     out = tmp_path / "ci"
     assert main(["batch", "configs/ci.yaml", "--jobs", "2", "--out", str(out)]) == 0
-    lines = capsys.readouterr().out.splitlines()
+    captured = capsys.readouterr()
+    lines = captured.out.splitlines()
     jobs = len(batch.load_batch(ROOT / "configs" / "ci.yaml").jobs)
-    progress = [JOB_LINE.match(line) for line in lines[:jobs]]
-    assert all(m and m.group(3) == "ok  " for m in progress), lines[:jobs]
-    assert sorted(int(m.group(1)) for m in progress) == list(range(1, jobs + 1))
+    logged = [line for line in captured.err.splitlines() if line.startswith("[")]
+    progress = [JOB_LINE.match(line) for line in logged]       # one per finished job
+    assert len(progress) == jobs and all(m and m.group(3) == "ok  " for m in progress), logged
+    assert [int(m.group(1)) for m in progress] == list(range(1, jobs + 1))
     assert re.fullmatch(rf"batch configs/ci\.yaml: {jobs} jobs, {jobs} ok, 0 failed, [\d.]+ s "
                         r"on 2 workers", lines[-2])
     summary = json.loads((out / "summary.json").read_text())
@@ -236,40 +239,55 @@ def test_lookup_follows_dotted_paths():
     assert batch.lookup(data, "a.c") == (False, None)
 
 
-def test_progress_line_on_a_terminal_plain_lines_otherwise(monkeypatch):
+def _shown(mode: str, stream) -> list:
+    """What a batch of a job that passes and one that misses shows in ``mode``."""
+    from anadyn_cli import progress
+
+    done = batch.JobResult(batch.Job("simulate", "rr.yaml", "rr", (), batch.Expectation()),
+                           0, 0.94)
+    missed = batch.JobResult(batch.Job("inverse", "rr.yaml", "rr2", (), batch.Expectation()),
+                             1, 2.5, failures=["exit code 1, expected 0"])
+    screens = []
+    with progress.session(stream, mode) as session:
+        shown = running._Shown(12)
+        shown.started(done.job)
+        shown.started(missed.job)
+        if mode == "live":
+            for job in session.tasks:          # what the ticking thread does after LIVE_DELAY
+                job.start -= progress.LIVE_DELAY
+            session._tick_live()
+            session.live.refresh()
+            screens.append(stream.getvalue())
+        shown.done(done)
+        shown.done(missed)
+        if mode == "live":
+            session.live.refresh()
+        shown.close(finished=True)
+    screens.append(stream.getvalue())
+    return screens
+
+
+def test_progress_a_line_per_finished_job_in_a_log_bars_on_a_terminal():
+    """Through anadyn_cli.progress: plain (a log, CI): exactly one line per finished job;
+    live: the batch's count, a line per running job with its clock, the misses kept."""
     import io
 
     class Terminal(io.StringIO):
         def isatty(self):
             return True
 
-    assert batch.Progress.wanted(Terminal()) and not batch.Progress.wanted(io.StringIO())
-    monkeypatch.setenv("CI", "true")
-    assert not batch.Progress.wanted(Terminal())
-    job = batch.Job("simulate", "rr.yaml", "rr", (), batch.Expectation())
-    done = batch.JobResult(job, 0, 0.94)
-    plain = io.StringIO()
-    progress = batch.Progress(plain, False, 12)
-    progress.started(job)
-    progress.done(done, 3, 12)
-    assert plain.getvalue() == "[3/12] ok   simulate rr  0.9 s\n"
-    screen = Terminal()
-    progress = batch.Progress(screen, True, 12)
-    progress.started(job)
-    progress.bars.refresh()            # what rich's own thread draws several times a second
-    running = screen.getvalue()
-    assert "simulate rr" in running and "0/12 done, 1 running, 0 failed" in running
+    (log,) = _shown("plain", io.StringIO())
+    assert log.splitlines()[:2] == ["[1/12] ok   simulate rr  0.9 s",
+                                    "[2/12] FAIL inverse rr2  2.5 s: exit code 1, expected 0"]
+    assert len(log.splitlines()) == 3 and log.startswith("anadyn: batch: done in ", log.index(
+        "anadyn:"))                         # and the batch's end, as every task's in a log
+    running, shown = _shown("live", Terminal())
+    assert "batch" in running and "0/12" in running and "2 running, 0 failed" in running
+    assert "simulate rr" in running and "inverse rr2" in running
     assert "0:00:0" in running         # each line has its clock
-    missed = batch.JobResult(batch.Job("inverse", "rr.yaml", "rr2", (), batch.Expectation()),
-                             1, 2.5, failures=["exit code 1, expected 0"])
-    progress.started(missed.job)
-    progress.done(done, 3, 12)
-    progress.done(missed, 4, 12)
-    progress.bars.refresh()
-    progress.close()
-    shown = screen.getvalue()
-    assert "4/12 done, 0 running, 1 failed" in shown
-    assert "[4/12] FAIL inverse rr2  2.5 s: exit code 1, expected 0" in shown   # kept
+    assert "[2/12] FAIL inverse rr2  2.5 s: exit code 1, expected 0" in shown   # kept
+    assert "[1/12] ok" not in shown
+    assert _shown("off", io.StringIO()) == [""]
 
 
 # -- names, commands and reports that cannot go wrong (issues 22 and 23) ---------------------

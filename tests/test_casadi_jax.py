@@ -139,3 +139,15 @@ def test_sympy_statements_of_loads(tmp_path):
                      np.array(module.inverse_dynamics(t, q, dq, ddq)))):
             for a, b in zip(got, ref):
                 assert np.allclose(a, b, rtol=1e-12, atol=1e-12)
+
+
+def test_without_casadi_one_line(monkeypatch, tmp_path, capsys):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "casadi", None)          # import casadi fails
+    message = "anadyn: error: CasADi is not installed; pip install 'anadyn[casadi]' (or casadi)\n"
+    for argv in (["export", str(ROBOTS / "rr.yaml"), "--lang", "casadi"],
+                 ["optimize", str(ROBOTS / "optimize" / "rr_swing.yaml")]):
+        assert main([*argv, "--out", str(tmp_path / "out")]) == 2
+        assert capsys.readouterr().err == message
+    assert not (tmp_path / "out").exists()

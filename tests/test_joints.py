@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from anadyn_cli.errors import ModelError
 from anadyn_cli.model.joints import JOINT_TYPES
+from anadyn_cli.model.loader import robot_from_text
 from anadyn_cli.model.robot import JOINT_TYPES as ROBOT_FILE_TYPES
 from anadyn_cli.symbolic.kinematics import rotation, rpy_rotation
 
@@ -86,24 +88,91 @@ def test_the_kinematic_equations_are_identity():
         assert kind.coordinate_rates([0.5] * kind.speeds) == [0.5] * kind.speeds
 
 
+ONE_JOINT = """\
+name: one
+coordinates:
+  q1: {{}}
+bodies:
+  - name: bar
+    joint: {{type: {word}, axis: [0, 0, 1]{extra}}}
+    mass: 1
+    com: [1, 0, 0]
+    inertia: {{ixx: 0.1, iyy: 0.1, izz: 0.1}}
+actuators:
+  drive: {{joint: bar}}
+"""
+
+#: the units the robot file's messages and the actuators give, written out by hand
+UNITS = {"revolute": {"damping": "N*m*s/rad", "friction": "N*m", "stiffness": "N*m/rad",
+                      "friction_velocity": "rad/s", "coordinate": "rad", "actuator": "N*m"},
+         "prismatic": {"damping": "N*s/m", "friction": "N", "stiffness": "N/m",
+                       "friction_velocity": "m/s", "coordinate": "m", "actuator": "N"}}
+
+
+@pytest.mark.parametrize("word", list(UNITS))
+def test_the_loader_takes_the_units_from_the_joint_type(word):
+    """The coordinate's and the actuator's unit, and the units the joint-force messages
+    name, are the joint type's (the loader composes the force units from them)."""
+    robot = robot_from_text(ONE_JOINT.format(word=word, extra=""))
+    assert robot.coordinates[0].unit == UNITS[word]["coordinate"]
+    assert robot.actuators[0].unit == UNITS[word]["actuator"]
+    for key in ("damping", "friction", "stiffness"):
+        with pytest.raises(ModelError, match=re.escape(f"must be 0 or positive "
+                                                       f"({UNITS[word][key]}), got -1")):
+            robot_from_text(ONE_JOINT.format(word=word, extra=f", {key}: -1"))
+    with pytest.raises(ModelError, match=re.escape(f"in {UNITS[word]['friction_velocity']}, "
+                                                   "over which")):
+        robot_from_text(ONE_JOINT.format(word=word, extra=", friction_velocity: 0"))
+
+
+def test_the_loader_refuses_a_type_word_outside_the_registry():
+    with pytest.raises(ModelError, match=r"joint\.type: must be one of revolute, prismatic, "
+                                         r"fixed, got 'continuous'$"):
+        robot_from_text(ONE_JOINT.format(word="continuous", extra=""))
+
+
+FLOATING_BASE = """\
+<robot name="floating">
+  <link name="world"/>
+  <link name="base">
+    <inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><geometry><box size="0.1 0.1 0.1"/></geometry></visual>
+  </link>
+  <link name="arm">
+    <inertial><origin xyz="0.5 0 0"/><mass value="1"/>
+      <inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><geometry><sphere radius="0.05"/></geometry></visual>
+  </link>
+  <joint name="free" type="floating"><parent link="world"/><child link="base"/></joint>
+  <joint name="turn" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>
+"""
+
+
+def test_the_view_reads_the_urdf_joints_that_move_as_the_importer_does(tmp_path):
+    """A floating base joint that --fix-base welds carries no body: the 3-D view's
+    visuals put the base link on the ground and the arm on the importer's body."""
+    from anadyn_cli.model.urdf import ReadingOptions, import_file, reading
+    from anadyn_cli.output.view.visuals import visuals
+
+    urdf = tmp_path / "floating.urdf"
+    urdf.write_text(FLOATING_BASE, encoding="utf-8")
+    bodies = [b["name"] for b in import_file(urdf, fix_base=True).data["bodies"]]
+    assert bodies == ["arm"]
+    with reading(ReadingOptions(fix_base=True)):
+        found = visuals(urdf)
+    assert [(v.link, v.owner) for v in found.items] == [("base", -1), ("arm", 0)]
+
+
 #: modules that still name joint type words, each for a reason: the unit itself; the
-#: robot-file and URDF readers (type words are their input; the loader's units and
-#: the URDF importer's kinds to move to the unit); the generic C kernel's joint codes
-#: (numeric/generic/tables.py); the 3-D view and the modules that test ``!= "fixed"``
-#: (to read ``joint_type.moving``) are listed for the lead.
-NAMING_WORDS = {"model/joints.py", "model/loader.py", "model/urdf.py", "model/library.py",
-                "numeric/generic/tables.py", "services/view.py", "symbolic/forces.py",
-                "numeric/frames.py", "numeric/closed_form.py", "studies/sweep.py",
-                "output/view/visuals.py"}
+#: generic C kernel's joint codes (numeric/generic/tables.py).
+NAMING_WORDS = {"model/joints.py", "numeric/generic/tables.py"}
 
 
 def test_the_recursions_and_kinematics_read_joints_through_the_unit():
-    """No other module compares a joint's type word: a new type is one class."""
-    words = re.compile(r'"(revolute|prismatic|fixed)"')
+    """No other module names a joint's type word: a new type is one class."""
+    words = re.compile(r"""["'](revolute|prismatic|fixed)["']""")
     naming = {str(p.relative_to(PACKAGE)) for p in PACKAGE.rglob("*.py")
               if words.search(p.read_text(encoding="utf-8"))}
     assert naming <= NAMING_WORDS
-    for module in ("numeric/recursive", "symbolic/kinematics.py",
-                   "symbolic/formulations/kane.py", "model/massmatrix.py", "model/info.py",
-                   "model/constraints.py", "model/robot.py", "output/drawing.py"):
-        assert not any(m.startswith(module) for m in naming), module

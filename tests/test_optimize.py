@@ -119,8 +119,8 @@ def test_unreachable_goal_and_failure(tmp_path, capsys):
     robot = str(ROBOTS / "optimize" / "rr_swing.yaml")
     assert main(["optimize", robot, "--to", "q1=4", "--out", str(tmp_path / "a")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"anadyn: error: {robot}: unreachable goal: q1 = 4 is outside its limits "
-                   "[-3.14159, 3.14159]"]
+    assert err == [f"anadyn: error: {robot}: unreachable goal: q1 = 4 is outside "
+                   "its limits [-3.14159, 3.14159]"]
     assert not (tmp_path / "a").exists()
     assert main(["optimize", robot, "--to", "q1=2,q2=2.5", "--duration", "0.3",
                  "--out", str(tmp_path / "b")]) == 3
@@ -160,3 +160,64 @@ def test_ur5_point_to_point_under_pinocchio_and_limits(tmp_path):
     u = np.column_stack([rows[e] for e in efforts])
     assert limits.check(info, rows["t"], q, dq, u) == []
     assert all(m["margin"] > 0 for m in summary["margins"])
+
+
+def test_limit_expressions_in_casadi_equal_numeric_limits():
+    """The bounds' expression trees (displacements, rates) built in CasADi evaluate as
+    numeric.limits evaluates them (one-argument functions applied, n-ary ones folded)."""
+    ca = pytest.importorskip("casadi")
+    import sympy as sp
+
+    from anadyn_cli.model.info import expression_tree
+    from anadyn_cli.numeric.limits import _evaluate
+    from anadyn_cli.services.optimize import _tree
+
+    q1, q2 = sp.symbols("q1 q2")
+    expr = (sp.sin(q1) * sp.Max(q2, 0.1, q1) + sp.atan2(q1, q2) ** 2 - sp.Abs(q2)
+            + sp.exp(-q1) + sp.Min(q1, q2) * sp.cos(q2) + sp.tanh(q1 * q2) + sp.sign(q2))
+    tree = expression_tree(expr)
+    for a, b in ((0.3, -0.7), (-1.2, 0.4), (2.0, 2.5)):
+        got = float(_tree(ca, tree, {"q1": ca.DM(a), "q2": ca.DM(b)}))
+        assert got == pytest.approx(_evaluate(tree, {"q1": np.array([a]), "q2": np.array([b])},
+                                              1)[0], rel=1e-14)
+
+
+def test_optimized_robot_file_replays(tmp_path):
+    """NAME_optimized.yaml holds the motion as a spline trajectory (quintics through q, dq,
+    ddq at the points): ``inverse`` on it gives the optimized efforts at every point."""
+    import yaml
+
+    robot = ROBOTS / "optimize" / "rr_swing.yaml"
+    _, rows = _optimize(robot, tmp_path / "o", "--intervals", "6")
+    folder = tmp_path / "o" / "optimize"
+    section = yaml.safe_load((folder / "trajectory.yaml").read_text())["trajectory"]
+    assert section["kind"] == "spline" and section["times"] == list(rows["t"])
+    step = str(rows["t"][1])
+    assert main(["inverse", str(folder / "rr_swing_optimized.yaml"), "--no-roundtrip",
+                 "--no-plot", "--no-cache", "--dt", step, "--out", str(tmp_path / "i")]) == 0
+    replay = _rows(tmp_path / "i" / "inverse.csv")
+    assert np.allclose(replay["t"], rows["t"], atol=1e-12)
+    for name in ("q1", "dq2", "ddq1", "T01z", "T12z"):
+        assert np.allclose(replay[name], rows[name], rtol=1e-9, atol=1e-9), name
+
+
+@pytest.mark.parametrize("change, message", [
+    ("times: [0, 1, 1]", "trajectory.times: times must increase"),
+    ("times: [0.5, 1, 2]", "trajectory.times: at least two times, the first 0"),
+    ("q: {q1: [0, 1]}", "trajectory.q.q1: one value per time: 3 times, got 2 values"),
+    ("q: {q1: [0, x, 1]}", "trajectory.q.q1[1]: expected a finite number, got 'x'"),
+    ("q: {q9: [0, 1, 1]}", "trajectory.q.q9: unknown coordinate 'q9'"),
+    ("dq: {}", "trajectory.dq: q1 has q, dq and ddq or none of them; dq is missing"),
+])
+def test_spline_trajectory_refuses_bad_samples(tmp_path, change, message, capsys):
+    base = {"times": "times: [0, 1, 2]", "q": "q: {q1: [0, 0.5, 1]}",
+            "dq": "dq: {q1: [0, 1, 0]}", "ddq": "ddq: {q1: [0, 0, 0]}"}
+    base[change.split(":")[0]] = change
+    text = (ROBOTS / "rr.yaml").read_text().replace(
+        "trajectory: {kind: cycloidal, duration: 15, to: {q1: pi/6, q2: pi/3}}",
+        "trajectory:\n  kind: spline\n" + "".join(f"  {v}\n" for v in base.values()))
+    path = tmp_path / "rr.yaml"
+    path.write_text(text)
+    assert main(["inverse", str(path), "--no-plot", "--out", str(tmp_path / "i")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"anadyn: error: {path}:") and message in err and err.count("\n") == 1

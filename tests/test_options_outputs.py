@@ -264,9 +264,10 @@ def test_python_and_matlab_exports_keep_a_path_in_their_comments(nasty_rr, tmp_p
 
 
 def test_user_text_is_one_printable_line():
-    from anadyn_cli.output.export.model import plain
+    """Controls escaped; a byte of a file name that was not UTF-8 shown as that byte."""
+    from anadyn_cli.errors import printable
 
-    assert plain("a\nb\tc\x00d\udcff é") == "a\\nb\\tc\\x00d\\udcff é"
+    assert printable("a\nb\tc\x00d\udcff é") == "a\\nb\\tc\\x00d\\xff é"
 
 
 def test_temporaries_nothing_reads_are_dropped():

@@ -367,3 +367,40 @@ def test_write_error_is_one_line_model_error(tmp_path):
     assert isinstance(caught.value, ModelError) and isinstance(caught.value, OSError)
     assert str(caught.value) == (f"cannot write {blocker / 'a.txt'}: Not a directory; earlier "
                                  "results there are left as they were")
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A real file system of 128 KiB (tmpfs, mounted as root), unmounted afterwards."""
+    import subprocess
+
+    folder = tmp_path / "disk"
+    folder.mkdir()
+    if os.geteuid() != 0 or subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", "size=128k", "tmpfs", str(folder)],
+            capture_output=True).returncode != 0:
+        pytest.skip("mounting a tmpfs needs root (CI runs as root)")
+    try:
+        yield folder
+    finally:
+        subprocess.run(["umount", "-l", str(folder)], capture_output=True)
+
+
+def test_a_really_full_disk_keeps_earlier_results_whole(small_disk, tmp_path, capsys):
+    """The same promise as above on a real full disk (ENOSPC from the kernel, not a
+    stand-in): a run whose CSV does not fit is one line, exit 2; the earlier set
+    stays byte for byte and no temporary file is left behind."""
+    rr = tmp_path / "rr.yaml"
+    rr.write_text(RR)
+    out = small_disk / "out"
+    code, _, err = run(capsys, "simulate", rr, "--out", out, "--t-end", "0.2", "--no-plot",
+                       "--no-cache")
+    assert code == 0, err
+    before = files(out)
+    code, text, err = run(capsys, "simulate", rr, "--out", out, "--t-end", "60",
+                          "--no-plot", "--no-cache")
+    assert (code, text) == (2, "")
+    assert err.startswith("anadyn: error: cannot write ") and "No space left on device" in err
+    assert err.count("\n") == 1
+    assert files(out) == before
+    assert leftovers(out) == []

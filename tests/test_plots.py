@@ -99,7 +99,7 @@ def test_simulate_plot_has_rates_on_request_a_plain_title_and_named_signals():
     assert labels(plain) == ["q1 (deg)", "q2 (deg)", "q3 (m)", "torque (N·m)", "force (N)"]
     assert labels(with_rates) == ["q1 (deg)", "dq1 (deg/s)", "q2 (deg)", "dq2 (deg/s)",
                                   "q3 (m)", "dq3 (m/s)", "torque (N·m)", "force (N)"]
-    assert plain.get_suptitle() == "rrt: simulate"      # the solver is in simulate.json
+    assert plain.get_suptitle() == "rrt: simulate (recursive Newton-Euler)"   # the solver: simulate.json
     force = [ax for ax in plain.axes if ax.get_ylabel() == "force (N)"][0]
     assert [t.get_text() for t in force.get_legend().get_texts()] == ["F23z"]
     q1 = [ax for ax in plain.axes if ax.get_ylabel() == "q1 (deg)"][0]

@@ -648,6 +648,7 @@ def test_a_cache_miss_builds_the_library_in_the_background(tmp_path, monkeypatch
     from anadyn_cli.numeric.build import numeric_model
     monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "anadyn"))
     monkeypatch.delenv("ANADYN_NATIVE", raising=False)
+    monkeypatch.setenv("ANADYN_GENERIC", "0")     # the generic kernel: test_generic_kernel.py
     first = numeric_model(repo / "robots/rrt.yaml", use_cache=True)
     assert not isinstance(first, native.NativeModel)
     assert first.native_note == ("generated Python (compiling in the background for the "

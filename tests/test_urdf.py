@@ -535,13 +535,14 @@ BAD = {
     "ball": (_arm(type="ball"), r"{f}: joint 'j1': type 'ball' is not a URDF joint type; "
                                 r"expected revolute, continuous, prismatic, fixed, floating or "
                                 r"planar"),
-    "no-mass": (_arm(mass="0"), r"{f}: joint 'j1': moves link 'l1', which has no mass \(no "
-                                r"<inertial> with a positive <mass> on it\); every moving link "
-                                r"needs its mass and inertia"),
+    "no-mass": (_arm(mass="0"), r"{f}: joint 'j1' moves nothing: no link it moves \(link 'l1' "
+                                r"and beyond\) has mass, so the mass matrix would be singular; "
+                                r"give one of those links an <inertial> with a positive <mass>, "
+                                r"or lock it \(--lock j1=0\)"),
     "missing-inertial": (_arm().replace('<inertial><mass value="1"/><origin xyz="0.1 0 0"/>\n'
                                         '    <inertia ixx="0.01" iyy="0.01" izz="0.01"/>'
                                         '</inertial>', ""),
-                         r"{f}: joint 'j1': moves link 'l1', which has no mass .*"),
+                         r"{f}: joint 'j1' moves nothing: no link it moves .*"),
     "negative-mass": (_arm(mass="-2"), r"{f}: link 'l1': <mass value=\"-2\">: a mass cannot be "
                                        r"negative"),
     "nan": (_arm(xyz="0 nan 0"), r"{f}: joint 'j1': <origin xyz=\"0 nan 0\">: numbers must be "

@@ -21,12 +21,10 @@ def batch(
 ) -> None:
     """Run the jobs of CONFIG in parallel processes and judge each against its expectations.
 
-    Shows a progress line on a terminal and one line per finished job
-    otherwise (or when CI is set); writes summary.csv, summary.json and
-    junit.xml; exit 1 naming every job that missed its expectation.
+    Shows the jobs done, running and failed on a terminal, and one line per
+    finished job on stderr otherwise (or when CI is set); writes summary.csv,
+    summary.json and junit.xml; exit 1 naming every job that missed its expectation.
     """
-    import sys
-
     from ..studies import batch as service
     from ..studies import executors
 
@@ -34,12 +32,9 @@ def batch(
     address = executors.scheduler_address(scheduler)
     client = executors.connect(address) if address is not None else None
     folder = out if out is not None else Path("results") / config.stem
-    progress = service.Progress(sys.stdout, service.Progress.wanted(sys.stdout), len(plan.jobs))
     try:
-        result = service.run(plan, folder, jobs, on_start=progress.started,
-                             on_done=progress.done, scheduler=client)
+        result = service.run(plan, folder, jobs, scheduler=client)
     finally:
-        progress.close()
         if client is not None:
             client.close()
     written = service.write(result, folder)

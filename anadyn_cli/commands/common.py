@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from enum import Enum
 from pathlib import Path
+from typing import List, Optional
 
 import typer
 
@@ -159,7 +160,79 @@ def check_options(command):
             option.parser = _setting_parser(settings[flags[0]])
             option.metavar = option.metavar or ("INTEGER" if ALLOWED[settings[flags[0]]].whole
                                                 else "FLOAT")
-    return command
+    return with_urdf_options(command)
+
+
+# -- how a URDF is read: --fix-base, --inertia, --lock on every command that takes a robot ------
+class InertiaPolicy(str, Enum):
+    refuse = "refuse"
+    repair = "repair"
+    accept = "accept"
+
+
+FixBaseOpt = typer.Option(False, "--fix-base",
+                          help="URDF: weld the floating or planar joint that carries the root "
+                               "link to the world, where its origin puts it (a URDF's root "
+                               "link is fixed to the world in any case).")
+InertiaOpt = typer.Option(InertiaPolicy.refuse, "--inertia",
+                          help="URDF: inertias that no rigid body has (not positive "
+                               "semidefinite, or principal moments breaking I1 + I2 >= I3): "
+                               "refuse them, repair them (nearest valid tensor), or accept them "
+                               "as given (triangle inequality only); repair and accept are "
+                               "stated in a warning.")
+LockOpt = typer.Option(None, "--lock", metavar="JOINT=VALUE",
+                       help="URDF: hold this joint at VALUE (rad or m; a number or an "
+                            "expression such as pi/4): a reduced robot, the joint's child "
+                            "folded into the body before it (repeatable).")
+#: parameter -> (type, option) of the URDF reading options (``model.urdf.ReadingOptions``)
+URDF_OPTIONS = {"fix_base": (bool, FixBaseOpt), "inertia": (InertiaPolicy, InertiaOpt),
+                "lock": (Optional[List[str]], LockOpt)}
+
+
+def reading_options(fix_base: bool, inertia: InertiaPolicy, lock: list[str] | None):
+    """The ``urdf.ReadingOptions`` of --fix-base, --inertia and the --lock texts."""
+    from ..model import urdf
+
+    return urdf.ReadingOptions(fix_base, inertia.value,
+                               tuple(urdf.parse_lock(text) for text in lock or ()))
+
+
+def with_urdf_options(command):
+    """``command`` with --fix-base, --inertia and --lock (URDF_OPTIONS) when it takes a
+    robot (a ``robot`` or ``robots`` argument) and has no such options of its own: the
+    URDF files it reads are read with them (``urdf.READING``), which changes the
+    imported text and so the derivation cache's key.  Given for robots none of which
+    is a URDF file, they are refused in one line."""
+    import functools
+    import inspect
+
+    signature = inspect.signature(command)
+    if not {"robot", "robots"} & set(signature.parameters) or "fix_base" in signature.parameters:
+        return command
+
+    @functools.wraps(command)
+    def run(*args, fix_base=False, inertia=InertiaPolicy.refuse, lock=None, **kwargs):
+        from ..model import library, urdf
+
+        options = reading_options(fix_base, inertia, lock)
+        robots = kwargs.get("robots") or [kwargs.get("robot")]
+        if options.flags() and not any(
+                r is not None and library.resolve(r).suffix.lower() == ".urdf" for r in robots):
+            from ..errors import ModelError
+            raise ModelError(f"{options.flags()}: these options say how a URDF file is read; "
+                             f"{', '.join(map(str, robots))} is not a URDF file")
+        token = urdf.READING.set(options)
+        try:
+            return command(*args, **kwargs)
+        finally:
+            urdf.READING.reset(token)
+
+    added = [inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=option,
+                               annotation=kind) for name, (kind, option) in URDF_OPTIONS.items()]
+    run.__signature__ = signature.replace(parameters=[*signature.parameters.values(), *added])
+    run.__annotations__ = {**command.__annotations__,
+                           **{name: kind for name, (kind, _) in URDF_OPTIONS.items()}}
+    return run
 
 
 def _setting_parser(setting: str):

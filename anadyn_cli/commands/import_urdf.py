@@ -1,16 +1,12 @@
 """anadyn import: a URDF robot as an anadyn robot file."""
 from __future__ import annotations
 
-from enum import Enum
 from pathlib import Path
+from typing import List, Optional
 
 import typer
 
-
-class InertiaPolicy(str, Enum):
-    refuse = "refuse"
-    repair = "repair"
-    accept = "accept"
+from .common import FixBaseOpt, InertiaOpt, InertiaPolicy, LockOpt, reading_options
 
 
 def import_urdf(
@@ -18,22 +14,17 @@ def import_urdf(
                                           "(`anadyn robots`).", show_default=False),
     output: Path = typer.Option(None, "-o", "--output",
                                 help="Write the robot file here [default: standard output]."),
-    fix_base: bool = typer.Option(False, "--fix-base",
-                                  help="Weld a floating or planar joint that carries the "
-                                       "root link to the world: a fixed-base robot."),
-    inertia: InertiaPolicy = typer.Option(
-        InertiaPolicy.refuse, "--inertia",
-        help="Inertias that no rigid body has (not positive semidefinite, or principal "
-             "moments breaking I1 + I2 >= I3): refuse them, repair them (nearest valid "
-             "tensor), or accept them as given (triangle inequality only); repair and "
-             "accept are stated in a warning."),
+    fix_base: bool = FixBaseOpt,
+    inertia: InertiaPolicy = InertiaOpt,
+    lock: Optional[List[str]] = LockOpt,
 ) -> None:
     """Import a URDF robot as an anadyn robot file (YAML, with comments).
 
     Links become bodies (links on fixed joints folded into the body they are
     fixed to), revolute, continuous and prismatic joints coordinates with one
     actuator each, <mimic> joints coupled displacements; limits, damping and
-    friction are kept.  Every command also takes the .urdf file directly.
+    friction are kept; --lock holds joints at a value (a reduced robot).  Every
+    command also takes the .urdf file directly, with these options.
     """
     from ..model import library
     from ..model.loader import robot_from_text
@@ -45,7 +36,8 @@ def import_urdf(
     shown = display_name(path)
     if path.suffix.lower() != ".urdf":
         raise ModelError("not a URDF file (expected a .urdf file name)", source=shown)
-    imported = import_file(path, fix_base=fix_base, inertia=inertia.value)
+    options = reading_options(fix_base, inertia, lock)
+    imported = import_file(path, options.fix_base, options.inertia, options.lock)
     robot = robot_from_text(imported.text, f"{shown} (imported)")   # what is written loads
     for warning in imported.warnings:
         typer.echo(f"anadyn: warning: {warning}", err=True)

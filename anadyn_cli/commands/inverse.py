@@ -68,9 +68,7 @@ def inverse(
     timings: dict = {}
     if motion is None and (smoothing_window, smoothing_order) != (None, None):
         raise ModelError("--smoothing-window and --smoothing-order apply to --motion data")
-    how = measured.Differentiator(
-        measured.DEFAULT_WINDOW if smoothing_window is None else smoothing_window,
-        measured.DEFAULT_ORDER if smoothing_order is None else smoothing_order)
+    how = measured.Differentiator.given(smoothing_window, smoothing_order)
     model = prepared_model(robot, formulation, evaluator, cache, timings)
     samples = None if motion is None else measured.read_motion(motion, model.coordinates, how)
     if samples is None and robot.suffix.lower() == ".urdf":

@@ -51,8 +51,10 @@ def optimize(
     """Optimal rest-to-rest motion by Hermite-Simpson collocation with IPOPT (needs CasADi:
     pip install 'anadyn[casadi]') under the file's position, rate and effort limits.
     Writes optimize.csv (t, q, dq, ddq, efforts at the knots and midpoints: `anadyn
-    inverse ROBOT --motion optimize.csv` replays it) and optimize.json (status, defect,
-    limit margins) to --out/optimize [default: results/NAME/optimize/]."""
+    inverse ROBOT --motion optimize.csv` replays it), trajectory.yaml (the motion as a
+    robot file's trajectory section, kind spline), for a YAML robot NAME_optimized.yaml
+    (the file with that trajectory) and optimize.json (status, defect, limit margins) to
+    --out/optimize [default: results/NAME/optimize/]."""
     import time
 
     from ..api import optimize as run
@@ -65,7 +67,7 @@ def optimize(
     timings = {"load": time.perf_counter() - begin}
     result = run(model, goal, first, duration, minimize.value, intervals)
     timings["optimize"] = time.perf_counter() - begin - timings["load"]
-    written = service.write(result, out_dir(out, model.name) / "optimize")
+    written = service.write(result, out_dir(out, model.name) / "optimize", model.source)
     typer.echo(f"{model.name}: {result.status} after {result.iterations} iterations; "
                f"{result.objective} {result.cost:.6g}, duration {result.duration:.6g} s, "
                f"defect {result.defect:.3g}, goal error {result.goal_error:.3g}")

@@ -21,6 +21,8 @@ from pathlib import Path
 
 import yaml
 
+from .joints import JOINT_TYPES
+
 PACKAGE = Path(__file__).resolve().parents[1]          # anadyn_cli/
 #: (installed package folder, source-tree folder), searched in this order
 FOLDERS = (("robots", "robots"), ("scenes", "configs"))
@@ -173,7 +175,8 @@ def describe(name: str, path: Path) -> Entry:
         kind = joint.get("type", "?")
         kinds[kind] = kinds.get(kind, 0) + 1
         displacement = joint.get("displacement")
-        if kind != "fixed" and displacement is not None:   # a function of others, or shared
+        if displacement is not None and kind in JOINT_TYPES and JOINT_TYPES[kind].moving:
+            # a function of other coordinates, or one shared with another joint
             coupled += displacement not in coordinates or displacement in used
             used.add(displacement)
     joints = ", ".join(f"{n} {k}" for k, n in kinds.items())

@@ -32,21 +32,27 @@ from ..errors import ModelError
 from . import expressions
 from . import massmatrix
 from .names import GROUND, IDENTIFIER, RESERVED_NAMES, default_name
-from .robot import (JOINT_TYPES, Actuator, Body, Controller, Coordinate, Joint, JointLimits,
-                    Load, Robot, Simulation, Trajectory, frozen_map)
+from .joints import JOINT_TYPES, JointType
+from .robot import (Actuator, Body, Controller, Coordinate, Joint, JointLimits, Load, Robot,
+                    Simulation, Trajectory, frozen_map)
 from .info import METHODS
 from .yamlschema import describe_value as _kind, load
 from .yamlsource import read_text
 
-TRAJECTORY_KINDS = ("cycloidal", "quintic", "expression", "waypoints")
-MAX_BODIES = 100          # symbolic derivation is out of reach long before this
-MAX_COORDINATES = 100
+TRAJECTORY_KINDS = ("cycloidal", "quintic", "expression", "waypoints", "spline")
+# a guard against a runaway file, not a limit of the recursions (O(n)): loading checks
+# M at several states, O(n^3); TIAGo dual (101 bodies, 101 coordinates) loads in 2-3 s,
+# 1000 would take minutes; no published robot comes near (docs/how-to/urdf.md)
+MAX_BODIES = 1000
+MAX_COORDINATES = 1000
 MAX_ROWS = 1_000_000      # simulation.t_end / simulation.output_step
 # constants beyond these make SymPy's exact arithmetic crawl (300-digit rationals)
 SMALLEST, LARGEST = 1e-30, 1e30
 #: joint keys for the forces along the joint (robot.Joint), reaction on the parent
 JOINT_FORCE_KEYS = ("damping", "friction", "friction_velocity", "stiffness", "rest")
 LOAD_FRAMES = ("world", "body")
+#: the joint types that move, for messages: "revolute or prismatic"
+MOVING_WORDS = " or ".join(word for word, kind in JOINT_TYPES.items() if kind.moving)
 TOP_KEYS = ("name", "description", "parameters", "gravity", "coordinates", "bodies",
             "actuators", "controller", "loads", "trajectory", "simulation", "loops",
             "constraints")
@@ -376,8 +382,9 @@ class _RobotBuilder:
         bodies: dict[str, Body] = {}
         cursors: dict[str, Cursor] = {}
         units: dict[str, str] = {}
+        carriers = {item.value.get("parent") for item in items if isinstance(item.value, dict)}
         for k, item in enumerate(items):
-            body = self.body(item, iter(defaults.get(k, ())), units)
+            body = self.body(item, iter(defaults.get(k, ())), units, carriers)
             if body.name in bodies:
                 raise item.child("name", None).error(
                     f"duplicate body name {body.name!r}; every body needs its own name")
@@ -427,7 +434,7 @@ class _RobotBuilder:
         takers = []
         for k, value in enumerate(raw):
             joint = value.get("joint")
-            if (isinstance(joint, dict) and joint.get("type") in ("revolute", "prismatic")
+            if (isinstance(joint, dict) and _moving(joint.get("type"))
                     and "displacement" not in joint):
                 takers.append(k)
         ancestors = {k: chain(k) for k in takers}
@@ -448,7 +455,8 @@ class _RobotBuilder:
                         f"them displacements{hint}")
         return {k: [free[j]] for j, k in enumerate(order) if j < len(free)}
 
-    def body(self, item: Cursor, free_coordinates, units: dict[str, str]) -> Body:
+    def body(self, item: Cursor, free_coordinates, units: dict[str, str],
+             carriers: set) -> Body:
         fields = item.mapping(("name", "parent", "joint", "mass", "com", "inertia"),
                               required=("name", "joint", "mass"))
         name = fields["name"].identifier("body name")
@@ -460,8 +468,11 @@ class _RobotBuilder:
                                              f"{_kind(parent)}")
         joint = self.joint(fields["joint"], free_coordinates, units)
         mass = self.constant(fields["mass"])
-        if joint.type != "fixed" or self.check_numeric(fields["mass"], mass) != 0:
-            self.positive(fields["mass"], mass, "a mass in kg")   # a welded body may be massless
+        # massless: a welded body, or a moving one that carries others (a virtual link
+        # between joints, as URDF writes ball joints; M's check finds what moves nothing)
+        if (joint.joint_type.moving and name not in carriers
+                or self.check_numeric(fields["mass"], mass) != 0):
+            self.positive(fields["mass"], mass, "a mass in kg")
         com = self.constant_vector(fields.get("com"))
         inertia = self.inertia(fields["inertia"]) if "inertia" in fields else sp.zeros(3, 3)
         return Body(name, parent, joint, mass, com, sp.ImmutableMatrix(inertia))
@@ -470,25 +481,26 @@ class _RobotBuilder:
         fields = cursor.mapping(("type", "axis", "origin", "rpy", "displacement", "limits",
                                  *JOINT_FORCE_KEYS),
                                 required=("type",))
-        kind = fields["type"].choice(JOINT_TYPES)
+        word = fields["type"].choice(tuple(JOINT_TYPES))
+        kind = JOINT_TYPES[word]
         origin = self.constant_vector(fields.get("origin"))
         rpy = self.constant_vector(fields.get("rpy"))
         zero = self.constant_vector(None)
-        if kind == "fixed":
+        if not kind.moving:
             for key in ("axis", "displacement"):
                 if key in fields:
-                    raise fields[key].error("a fixed joint has no axis or displacement; "
-                                            "remove it or make the joint revolute or prismatic")
+                    raise fields[key].error(f"a {word} joint has no axis or displacement; "
+                                            f"remove it or make the joint {MOVING_WORDS}")
             if "limits" in fields:
-                raise fields["limits"].error("a fixed joint has no limits; remove them or make "
-                                             "the joint revolute or prismatic")
+                raise fields["limits"].error(f"a {word} joint has no limits; remove them or "
+                                             f"make the joint {MOVING_WORDS}")
             for key in JOINT_FORCE_KEYS:
                 if key in fields:
-                    raise fields[key].error(f"a fixed joint does not move, so it has no {key}; "
-                                            "remove it or make the joint revolute or prismatic")
-            return Joint(kind, zero, origin, rpy, sp.Integer(0))
+                    raise fields[key].error(f"a {word} joint does not move, so it has no "
+                                            f"{key}; remove it or make the joint {MOVING_WORDS}")
+            return Joint(word, zero, origin, rpy, sp.Integer(0))
         if "axis" not in fields:
-            raise cursor.error(f"missing required key 'axis' for a {kind} joint")
+            raise cursor.error(f"missing required key 'axis' for a {word} joint")
         axis = self.constant_vector(fields["axis"])
         numeric = np.array([self.check_numeric(fields["axis"], a) for a in axis])
         norm = float(np.linalg.norm(numeric))
@@ -511,19 +523,20 @@ class _RobotBuilder:
             raise (fields.get("displacement") or cursor).error(
                 "the displacement must depend on at least one coordinate, e.g. q1 or q2 - q1")
         for symbol in sorted(used, key=str):
-            units.setdefault(symbol.name, "rad" if kind == "revolute" else "m")
+            units.setdefault(symbol.name, kind.unit)
         limits = self.limits(fields["limits"]) if "limits" in fields else JointLimits()
-        return Joint(kind, axis, origin, rpy, displacement, limits=limits,
+        return Joint(word, axis, origin, rpy, displacement, limits=limits,
                      **self.joint_forces(fields, kind))
 
-    def joint_forces(self, fields: dict[str, Cursor], kind: str) -> dict[str, sp.Expr]:
+    def joint_forces(self, fields: dict[str, Cursor], kind: JointType) -> dict[str, sp.Expr]:
         """damping, friction, friction_velocity, stiffness, rest: constants (expressions of
-        the parameters); damping, friction and stiffness >= 0, friction_velocity > 0."""
-        rotary = kind == "revolute"
-        units = {"damping": "N*m*s/rad" if rotary else "N*s/m",
-                 "friction": "N*m" if rotary else "N",
-                 "friction_velocity": "rad/s" if rotary else "m/s",
-                 "stiffness": "N*m/rad" if rotary else "N/m"}
+        the parameters); damping, friction and stiffness >= 0, friction_velocity > 0.  Their
+        units follow from the joint type's: damping N*m*s/rad or N*s/m, friction N*m or N,
+        friction_velocity rad/s or m/s, stiffness N*m/rad or N/m."""
+        units = {"damping": f"{kind.effort_unit}*s/{kind.unit}",
+                 "friction": kind.effort_unit,
+                 "friction_velocity": f"{kind.unit}/s",
+                 "stiffness": f"{kind.effort_unit}/{kind.unit}"}
         result: dict[str, sp.Expr] = {}
         for key in JOINT_FORCE_KEYS:
             if key not in fields:
@@ -654,7 +667,7 @@ class _RobotBuilder:
         state = self.initial_state(coordinates)
         for body in bodies:
             joint = body.joint
-            if joint.type == "fixed":
+            if not joint.joint_type.moving:
                 continue
             joint_value = cursors[body.name].value["joint"]
             cursor = cursors[body.name].child("joint", joint_value)
@@ -705,11 +718,11 @@ class _RobotBuilder:
                 hint = f" (did you mean {close[0]!r}?)" if close else ""
                 raise fields["joint"].error(f"unknown body {shown}{hint}; actuators act on "
                                             f"the joint of one of: {', '.join(by_name)}")
-            kind = by_name[body_name].joint.type
-            if kind == "fixed":
-                raise fields["joint"].error(f"body {body_name!r} has a fixed joint; nothing to "
-                                            "drive (actuate a revolute or prismatic joint)")
-            result.append(Actuator(key, body_name, "N*m" if kind == "revolute" else "N"))
+            joint = by_name[body_name].joint
+            if not joint.joint_type.moving:
+                raise fields["joint"].error(f"body {body_name!r} has a {joint.type} joint; "
+                                            f"nothing to drive (actuate a {MOVING_WORDS} joint)")
+            result.append(Actuator(key, body_name, joint.joint_type.effort_unit))
         return tuple(result)
 
     def controller(self, cursor: Cursor, actuators: tuple[Actuator, ...],
@@ -793,8 +806,15 @@ class _RobotBuilder:
 
     def trajectory(self, cursor: Cursor) -> Trajectory:
         fields = cursor.mapping(("kind", "duration", "from", "to", "expressions", "points",
-                                 "durations", "shape"), required=("kind",))
+                                 "durations", "shape", "times", "q", "dq", "ddq"),
+                                required=("kind",))
         kind = fields["kind"].choice(TRAJECTORY_KINDS)
+        if kind == "spline":                     # samples of q, dq, ddq (model.spline)
+            from . import spline
+            return spline.read(self, cursor, fields)
+        for key in ("times", "q", "dq", "ddq"):
+            if key in fields:
+                raise fields[key].error(f"'{key}' belongs to kind 'spline'")
         if kind == "waypoints":                  # poses and durations (model.waypoints)
             from . import waypoints
             return waypoints.read(self, cursor, fields)
@@ -907,6 +927,12 @@ def _short(value: object, limit: int = 60) -> str:
     except ValueError:             # e.g. an integer too long to print
         text = "a huge number"
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _moving(word: object) -> bool:
+    """Whether ``word`` (a value read from the file, any type) names a joint type that
+    moves: such a joint without a displacement takes a coordinate."""
+    return isinstance(word, str) and word in JOINT_TYPES and JOINT_TYPES[word].moving
 
 
 def _unit(axis, values) -> tuple[sp.Expr, sp.Expr, sp.Expr]:

@@ -42,9 +42,11 @@ import functools
 import math
 import re
 import stat
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from itertools import combinations
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -52,13 +54,19 @@ import yaml
 
 from .. import __version__
 from ..errors import ModelError, display_name, printable
+from .joints import JOINT_TYPES, Fixed, JointType, Prismatic, Revolute
 from .names import GROUND, IDENTIFIER, RESERVED_NAMES
 from .yamlschema import Dumper
 
 MAX_BYTES = 4 * 1024 * 1024       # expat reads this in ~0.1 s; URDFs are ~10-200 kB
 GRAVITY = 9.81                    # m/s^2 along -z of the root link (URDF, ROS, Pinocchio)
-MOVING = ("revolute", "continuous", "prismatic")
-JOINT_TYPES = (*MOVING, "fixed", "floating", "planar")
+#: URDF joint type -> the anadyn joint type it imports as (``model.joints``); None for the
+#: joints of several degrees of freedom, which only ``fix_base`` can take (welded)
+URDF_TYPES = MappingProxyType({
+    Revolute.word: JOINT_TYPES[Revolute.word], "continuous": JOINT_TYPES[Revolute.word],
+    Prismatic.word: JOINT_TYPES[Prismatic.word], Fixed.word: JOINT_TYPES[Fixed.word],
+    "floating": None, "planar": None})
+WELDED = JOINT_TYPES[Fixed.word]
 INERTIA_POLICIES = ("refuse", "repair", "accept")
 SMALLEST, LARGEST = 1e-30, 1e30   # anadyn's number range (model.loader); smaller -> 0
 # the loader's thresholds for a valid inertia (model.loader.inertia)
@@ -190,7 +198,8 @@ class _Link:
 @dataclass
 class _Joint:
     name: str
-    type: str
+    type: str                             # the URDF word
+    kind: JointType | None                # what it imports as (URDF_TYPES; WELDED by fix_base)
     parent: str
     child: str
     origin: np.ndarray
@@ -203,6 +212,20 @@ class _Joint:
     @property
     def pose(self) -> Pose:
         return rpy_matrix(self.rpy), self.origin
+
+    @property
+    def moving(self) -> bool:
+        """Whether the joint adds a displacement (revolute, continuous, prismatic)."""
+        return self.kind is not None and self.kind.moving
+
+    def moved(self, displacement: float) -> Pose:
+        """The child link's frame in the parent's at this displacement (the joint
+        type's ``transform``, the axis made unit as the loader makes it)."""
+        from .massmatrix import _rotation
+
+        R, origin = self.pose
+        axis = self.axis / np.linalg.norm(self.axis)
+        return self.kind.transform(R, origin, axis, displacement, _rotation)
 
 
 #: YAML text an import in this process produced -> the URDF place of its key
@@ -246,24 +269,90 @@ def read_urdf(path: str | Path) -> bytes:
     return raw
 
 
-def import_file(path: str | Path, fix_base: bool = False,
-                inertia: str = "refuse") -> Imported:
+@dataclass(frozen=True)
+class ReadingOptions:
+    """How a URDF is read (the flags of the same names): ``fix_base`` welds the
+    floating or planar joint that carries the root link; ``inertia`` is the policy
+    for impossible inertias (INERTIA_POLICIES); ``lock`` is ((joint, value), ...),
+    the joints held at a value (a number, or its text: ``0.5``, ``pi/4``)."""
+    fix_base: bool = False
+    inertia: str = "refuse"
+    lock: tuple[tuple[str, float | str], ...] = ()
+
+    def flags(self) -> str:
+        """The options as command-line flags ('' for the defaults)."""
+        words = (["--fix-base"] if self.fix_base else []) + (
+            [f"--inertia {self.inertia}"] if self.inertia != "refuse" else [])
+        return " ".join(words + [f"--lock {name}={value}" for name, value in self.lock])
+
+
+#: the options that ``yamlsource.read_text`` and ``link_bodies`` read a URDF with; a
+#: command sets them for its run (``commands.common.with_urdf_options``)
+READING: ContextVar[ReadingOptions] = ContextVar("urdf_reading", default=ReadingOptions())
+
+
+def parse_lock(option: str) -> tuple[str, str]:
+    """``JOINT=VALUE`` of a ``--lock`` -> (joint, value text); ModelError if malformed."""
+    name, equals, value = option.partition("=")
+    if not equals or not name.strip() or not value.strip():
+        raise ModelError(f"--lock {option!r}: expected JOINT=VALUE, e.g. --lock elbow=pi/4 "
+                         "(rad for a revolute joint, m for a prismatic one)")
+    return name.strip(), value.strip()
+
+
+def import_file(path: str | Path, fix_base: bool = False, inertia: str = "refuse",
+                lock=()) -> Imported:
     """Read and import the URDF file at ``path`` (named by ``display_name``)."""
     return import_urdf(read_urdf(path), display_name(path), fix_base=fix_base,
-                       inertia=inertia)
+                       inertia=inertia, lock=lock)
 
 
 def import_urdf(raw: bytes | str, source: str, fix_base: bool = False,
-                inertia: str = "refuse") -> Imported:
-    """Import URDF text; ``source`` names it in messages and (its file name) in the header."""
-    if inertia not in INERTIA_POLICIES:
+                inertia: str = "refuse", lock=()) -> Imported:
+    """Import URDF text; ``source`` names it in messages and (its file name) in the
+    header.  ``lock``: {joint: value} or ((joint, value), ...), the joints held at a
+    value (number or expression text, e.g. ``pi/4``): a reduced robot, as
+    Pinocchio's ``buildReducedModel`` makes it (ReadingOptions)."""
+    options = ReadingOptions(fix_base, inertia, tuple(dict(lock).items()))
+    return _Importer(source, options).run(_parsed(raw, source, options))
+
+
+def link_bodies(path: str | Path, options: ReadingOptions | None = None) -> "LinkBodies":
+    """Where each link of the URDF file at ``path`` ends up in the robot that
+    ``import_file`` makes of it with ``options`` (default: the current ``READING``)."""
+    options = READING.get() if options is None else options
+    source = display_name(path)
+    root = _parsed(read_urdf(path), source, options)
+    importer = _Importer(source, options)
+    links, joints, base = importer.tree(root)
+    order = importer.tree_order(base, joints)
+    locks = importer.locks(joints, importer.resolve_mimics(joints))
+    owner, pose, _, moving = importer.placement(base, order, locks)
+    index = {joint.child: k for k, joint in enumerate(moving)}
+    return LinkBodies(root, {name: (index.get(owner[name], -1), pose[name]) for name in owner},
+                      importer)
+
+
+@dataclass
+class LinkBodies:
+    """``link_bodies``: the parsed ``<robot>`` element; ``places``, link name ->
+    (index of the body it belongs to in the robot's bodies, -1 for the ground; the
+    link's frame in that body's frame as (R, p)); ``reader``, whose ``numbers``,
+    ``number`` and ``origin`` read more of the file as the importer does."""
+    root: object
+    places: dict[str, tuple[int, Pose]]
+    reader: "_Importer"
+
+
+def _parsed(raw: bytes | str, source: str, options: ReadingOptions):
+    if options.inertia not in INERTIA_POLICIES:
         raise ModelError(f"--inertia must be one of {', '.join(INERTIA_POLICIES)}, "
-                         f"got {inertia!r}")
+                         f"got {options.inertia!r}")
     if isinstance(raw, str):
         raw = raw.encode("utf-8")
     if len(raw) > MAX_BYTES:
         raise ModelError(f"text is over {MAX_BYTES} bytes, the limit for URDF", source=source)
-    return _Importer(source, fix_base, inertia).run(_parse_xml(raw, source))
+    return _parse_xml(raw, source)
 
 
 def _parse_xml(raw: bytes, source: str):
@@ -295,8 +384,9 @@ def _parse_xml(raw: bytes, source: str):
 
 
 class _Importer:
-    def __init__(self, source: str, fix_base: bool, inertia: str):
-        self.source, self.fix_base, self.policy = source, fix_base, inertia
+    def __init__(self, source: str, options: ReadingOptions):
+        self.source, self.options = source, options
+        self.fix_base, self.policy = options.fix_base, options.inertia
         self.warnings: list[str] = []
         self.placeholders: dict[str, list[str]] = {}   # joint -> <limit> values ignored
         self.flushed = 0                      # numbers below SMALLEST written as 0
@@ -377,9 +467,10 @@ class _Importer:
             raise self.error(None, f"<joint> number {index + 1} has no name")
         where = f"joint {name!r}"
         kind = element.get("type")
-        if kind not in JOINT_TYPES:
+        if kind not in URDF_TYPES:
+            *words, last = URDF_TYPES
             raise self.error(where, f"type {kind!r} is not a URDF joint type; expected "
-                                    f"{', '.join(JOINT_TYPES[:-1])} or {JOINT_TYPES[-1]}")
+                                    f"{', '.join(words)} or {last}")
         ends = {}
         for end in ("parent", "child"):
             tag = element.find(end)
@@ -392,16 +483,17 @@ class _Importer:
             raise self.error(where, f"link {ends['child']!r} is its own parent")
         xyz, rpy = self.origin(element, where)
         axis = self.numbers(element.find("axis"), "xyz", 3, where, "1 0 0")
-        if kind in MOVING and not np.linalg.norm(axis) > 1e-12:
+        moving = URDF_TYPES[kind] is not None and URDF_TYPES[kind].moving
+        if moving and not np.linalg.norm(axis) > 1e-12:
             raise self.error(where, f'<axis xyz="{element.find("axis").get("xyz")}">: the axis '
                                     "of a moving joint cannot be zero")
-        return _Joint(name, kind, ends["parent"], ends["child"], xyz, rpy, axis,
-                      self.limit(element, kind, where), self.dynamics(element, where),
-                      self.mimic(element, where))
+        return _Joint(name, kind, URDF_TYPES[kind], ends["parent"], ends["child"], xyz, rpy,
+                      axis, self.limit(element, kind, moving, where),
+                      self.dynamics(element, where), self.mimic(element, where))
 
-    def limit(self, element, kind: str, where: str) -> dict:
+    def limit(self, element, kind: str, moving: bool, where: str) -> dict:
         tag = element.find("limit")
-        if tag is None or kind not in MOVING:
+        if tag is None or not moving:
             return {}
         limit = {}
         for key in ("velocity", "effort"):
@@ -458,6 +550,15 @@ class _Importer:
 
     # -- the tree -----------------------------------------------------------------
     def run(self, root) -> Imported:
+        links, joints, base = self.tree(root)
+        order = self.tree_order(base, joints)
+        masters = self.resolve_mimics(joints)
+        return self.build(root, base, order, links, joints, masters,
+                          self.locks(joints, masters))
+
+    def tree(self, root) -> tuple[dict[str, _Link], dict[str, _Joint], str]:
+        """The links and joints of the file and its root link (floating and planar
+        joints welded or refused: ``free_joints``)."""
         links: dict[str, _Link] = {}
         for i, element in enumerate(root.findall("link")):
             link = self.link(element, i)
@@ -480,9 +581,7 @@ class _Importer:
             parent_joint[joint.child] = joint
         base = self.root(links, joints, parent_joint)
         self.free_joints(joints, base)
-        order = self.tree_order(base, joints)
-        masters = self.resolve_mimics(joints)
-        return self.build(root, base, order, links, joints, masters)
+        return links, joints, base
 
     def root(self, links, joints, parent_joint) -> str:
         roots = [name for name in links if name not in parent_joint]
@@ -495,16 +594,26 @@ class _Importer:
         return roots[0]
 
     def free_joints(self, joints: dict[str, _Joint], base: str) -> None:
-        """Floating and planar joints: welded by fix_base when they carry the root, else refused."""
+        """Floating and planar joints: the one that carries the root link welded by
+        fix_base, every other refused."""
+        carrying = [j.name for j in joints.values() if j.kind is None and j.parent == base]
+        if self.fix_base and not carrying:
+            self.warnings.append(f"{self.source}: --fix-base: no floating or planar joint "
+                                 f"carries the root link {base!r}; nothing welded (the root "
+                                 "link is fixed to the world in every import)")
         for joint in joints.values():
-            if joint.type not in ("floating", "planar"):
+            if joint.kind is not None:
                 continue
             where = f"joint {joint.name!r}"
+            if self.fix_base and len(carrying) > 1 and joint.parent == base:
+                raise self.error(where, f"--fix-base welds the one joint that carries the root "
+                                        f"link; {base!r} carries {len(carrying)} floating or "
+                                        f"planar joints ({_listed(carrying)})")
             if joint.parent == base and self.fix_base:
                 self.warnings.append(f"{self.source}: {where}: {joint.type} joint of the base "
                                      f"welded: link {joint.child!r} fixed to {base!r} where "
                                      "the joint's origin puts it (--fix-base)")
-                joint.type = "fixed"
+                joint.kind = WELDED
                 continue
             hint = (f"; to simulate the robot on a fixed base, import it with --fix-base "
                     f"(welds link {joint.child!r} to {base!r} where the joint's origin puts it)"
@@ -537,7 +646,7 @@ class _Importer:
         theta_j = k_j k_m theta_i + (k_j c_m + c_j)."""
         result = {}
         for joint in joints.values():
-            if joint.mimic is None or joint.type not in MOVING:
+            if joint.mimic is None or not joint.moving:
                 continue
             where = f"joint {joint.name!r}"
             master, k, c = joint.mimic
@@ -546,7 +655,7 @@ class _Importer:
                 if master not in joints:
                     raise self.error(where, f'<mimic joint="{master}">: no such joint')
                 other = joints[master]
-                if other.type not in MOVING:
+                if not other.moving:
                     raise self.error(where, f'<mimic joint="{master}">: that joint is '
                                             f"{other.type}; it must move")
                 if master in seen:
@@ -562,25 +671,96 @@ class _Importer:
             result[joint.name] = (master, k, c)
         return result
 
+    def locks(self, joints: dict[str, _Joint], masters) -> dict[str, float]:
+        """Joint -> the displacement it is held at: each ``--lock`` joint (a moving
+        joint, not a mimic, within its limits) and the mimics of a locked joint."""
+        result: dict[str, float] = {}
+        for name, given in self.options.lock:
+            shown = f"--lock {name}={given}"
+            joint = joints.get(name)
+            if joint is None or not joint.moving:
+                movable = [j.name for j in joints.values() if j.moving and j.name not in masters]
+                what = "no such joint" if joint is None else f"joint {name!r} is {joint.type}"
+                raise self.error(None, f"{shown}: {what}; the joints that can be locked are "
+                                       f"{_listed(movable, 8)}")
+            where = f"joint {name!r}"
+            if name in masters:
+                raise self.error(where, f"{shown}: the joint mimics {masters[name][0]!r}; lock "
+                                        "that joint (its mimics follow it)")
+            if name in result:
+                raise self.error(where, f"{shown}: the joint is locked twice")
+            try:
+                value = _lock_value(given, shown)
+            except ModelError as err:
+                raise self.error(where, err.reason) from None
+            lower, upper = joint.limit.get("lower"), joint.limit.get("upper")
+            if lower is not None and not lower <= value <= upper:
+                raise self.error(where, f"{shown}: {value:.6g} is outside the joint's <limit> "
+                                        f"[{lower:g}, {upper:g}]")
+            result[name] = value
+        for name, (master, k, c) in masters.items():
+            if master in result:
+                result[name] = k * result[master] + c
+        return result
+
     # -- the robot ------------------------------------------------------------------
-    def build(self, root, base, order, links, joints, masters) -> Imported:
-        owner = {base: GROUND}                  # link -> body (or ground) it belongs to
-        pose = {base: IDENTITY}                 # link frame in its owner's axes
+    def placement(self, base: str, order: list[_Joint], locks: dict[str, float]):
+        """(owner, pose, folded, moving): link -> the link whose body it belongs to
+        (the child of a moving joint) or GROUND; link -> its frame in that body's
+        axes; body -> [(link, joint)] folded into it; the moving joints (the bodies)
+        in tree order.  A fixed or locked joint folds its child into its parent's
+        body, a locked one at its displacement."""
+        owner = {base: GROUND}
+        pose = {base: IDENTITY}
         folded: dict[str, list[tuple[str, _Joint]]] = {GROUND: []}
         moving: list[_Joint] = []
         for joint in order:
-            if joint.type == "fixed":
-                owner[joint.child] = owner[joint.parent]
-                pose[joint.child] = compose(pose[joint.parent], joint.pose)
-                folded[owner[joint.child]].append((joint.child, joint))
-            else:
+            if joint.moving and joint.name not in locks:
                 owner[joint.child] = joint.child
                 pose[joint.child] = IDENTITY
                 folded[joint.child] = []
                 moving.append(joint)
+                continue
+            owner[joint.child] = owner[joint.parent]
+            relative = joint.moved(locks[joint.name]) if joint.name in locks else joint.pose
+            pose[joint.child] = compose(pose[joint.parent], relative)
+            folded[owner[joint.child]].append((joint.child, joint))
+        return owner, pose, folded, moving
+
+    def motionless(self, moving: list[_Joint], owner, folded, links) -> list[_Joint]:
+        """The moving joints that move nothing: no link on their body or beyond it
+        has mass (anadyn's moving bodies have mass, but for a massless body that
+        carries others); their speeds would leave M singular.  A massless link
+        between joints (URDF's ball joints written as three revolute joints with
+        virtual links) moves the massive links beyond it: that is fine."""
+        heavy = {j.child: any(links[name].inertial is not None and links[name].inertial.mass > 0
+                              for name, _ in [(j.child, None)] + folded[j.child])
+                 for j in moving}
+        for joint in reversed(moving):           # children before parents
+            parent = owner[joint.parent]
+            if parent != GROUND:
+                heavy[parent] = heavy[parent] or heavy[joint.child]
+        return [j for j in moving if not heavy[j.child]]
+
+    def build(self, root, base, order, links, joints, masters, locks) -> Imported:
+        owner, pose, folded, moving = self.placement(base, order, locks)
+        masters = {name: m for name, m in masters.items() if name not in locks}
         if not moving:
             raise self.error(None, "nothing moves: the URDF has no revolute, continuous or "
-                                   "prismatic joint")
+                                   "prismatic joint" + (" that is not locked" if locks else ""))
+        idle = self.motionless(moving, owner, folded, links)
+        if idle:
+            one = len(idle) == 1
+            lockable = [j for j in idle if j.name not in masters]
+            fix = " ".join(f"--lock {j.name}={_format(self.initial(j))}" for j in lockable[:4])
+            raise self.error(None, (
+                f"joint {idle[0].name!r} moves nothing" if one else
+                f"joints {_listed([j.name for j in idle], 8)} move nothing") + (
+                f": no link {'it moves' if one else 'they move'} (link "
+                f"{idle[0].child!r} and beyond) has mass, so the mass matrix would be "
+                f"singular; give one of those links an <inertial> with a "
+                f"positive <mass>, or lock {'it' if one else 'them'}") + (
+                f" ({fix}{' ...' if len(lockable) > 4 else ''})" if lockable else ""))
         names = _Names()
         robot_name = names.robot(Path(self.source).stem)     # results/NAME, as for YAML
         coordinates = [j for j in moving if j.name not in masters]
@@ -607,7 +787,7 @@ class _Importer:
                   **{f"coordinates.{q[j.name]}": f"joint {j.name!r}" for j in coordinates},
                   **{f"actuators.{tau[j.name]}": f"joint {j.name!r}" for j in coordinates}}
         self.collect_notes()
-        header = self.header(base, folded[GROUND], coordinates, masters, q, joints)
+        header = self.header(base, folded[GROUND], coordinates, masters, q, joints, locks)
         footer = self.trajectory_hint(coordinates[0], q[coordinates[0].name])
         text = render(data, header, comments) + footer
         _PLACES[text] = places
@@ -619,7 +799,7 @@ class _Importer:
         """A commented-out motion for ``anadyn inverse`` (a URDF has none): the first
         coordinate 0.5 rad or 0.05 m on from its start, within its limits."""
         start = self.initial(joint)
-        target = start + (0.05 if joint.type == "prismatic" else 0.5)
+        target = start + (0.5 if joint.kind.angular else 0.05)
         if "upper" in joint.limit:
             target = min(target, joint.limit["upper"])
         return (f"# a motion for `anadyn inverse` (a URDF has none); uncomment and edit:\n"
@@ -644,14 +824,7 @@ class _Importer:
             origin, rpy = _snap(origin), _snap(matrix_rpy(R), math.pi)
         mass = combine([self.checked_inertial(links[name], where).moved(pose[name])
                         for name, _ in parts if links[name].inertial is not None])
-        if mass.mass <= 0:
-            folded = [name for name, _ in parts[1:]]
-            also = f" or on the links fixed to it ({', '.join(folded)})" if folded else ""
-            raise self.error(where, f"moves link {joint.child!r}, which has no mass (no "
-                                    f"<inertial> with a positive <mass> on it{also}); every "
-                                    "moving link needs its mass and inertia")
-        kind = "prismatic" if joint.type == "prismatic" else "revolute"
-        spec = {"type": kind}
+        spec = {"type": joint.kind.word}
         if origin.any():
             spec["origin"] = self.vector(origin)
         if rpy.any():
@@ -734,16 +907,17 @@ class _Importer:
 
     # -- comments -------------------------------------------------------------------
     def description(self, root, coordinates, moving, masters) -> str:
-        kinds = [("revolute", sum(j.type != "prismatic" for j in coordinates)),
-                 ("prismatic", sum(j.type == "prismatic" for j in coordinates))]
+        kinds = [(kind.word, sum(j.kind is kind for j in coordinates))
+                 for kind in JOINT_TYPES.values()]
         counted = ", ".join(f"{n} {k}" for k, n in kinds if n)
         mimic = f", {len(masters)} mimic joint{'s' if len(masters) > 1 else ''}" if masters else ""
         return (f"URDF robot {root.get('name') or '?'!r} from {Path(self.source).name}: "
                 f"{len(coordinates)} coordinates ({counted}){mimic}, {len(moving)} bodies")
 
-    def header(self, base, base_links, coordinates, masters, q, joints) -> list[str]:
+    def header(self, base, base_links, coordinates, masters, q, joints, locks) -> list[str]:
+        flags = self.options.flags()
         lines = [f"Imported by anadyn {__version__} from {Path(self.source).name} "
-                 "(`anadyn import`); edit freely.",
+                 f"(`anadyn import{' ' + flags if flags else ''}`); edit freely.",
                  "URDF joint -> coordinate (revolute and continuous: rad, prismatic: m), "
                  "actuator tau_<coordinate> on it:"]
         for joint in coordinates:
@@ -753,6 +927,11 @@ class _Importer:
             lines.append(f"  mimic joint {name!r}: displacement "
                          f"{self.displacement(joints[name], q, masters)} (no coordinate, "
                          "no actuator)")
+        if locks:
+            lines.append("Locked joints (--lock), their child links folded into the body "
+                         "before them at that displacement:")
+            lines.extend(f"  {name}: {joints[name].type} at {_format(value)} "
+                         f"{joints[name].kind.unit}" for name, value in locks.items())
         fixed = ", ".join(name for name, _ in base_links)
         lines.append(f"Base (fixed to the world, its mass does not move): link {base!r}"
                      + (f" and the links fixed to it: {fixed}" if fixed else "") + ".")
@@ -827,6 +1006,21 @@ def _python_float(word: str) -> bool:
     except ValueError:
         return False
     return True
+
+
+def _lock_value(value: float | str, shown: str) -> float:
+    """A --lock value: a number, or an expression of numbers and pi (``pi/4``) read by
+    ``expressions.parse`` and evaluated in double precision by ``approximate`` (no
+    names, never run as code); finite and real."""
+    from . import expressions
+
+    try:
+        number = expressions.approximate(expressions.parse(value, {}))
+    except expressions.ExpressionError as err:
+        raise ModelError(f"{shown}: {err}") from None
+    if number.imag != 0 or not math.isfinite(number.real):
+        raise ModelError(f"{shown}: {value!r} is not a finite real number")
+    return number.real
 
 
 def _listed(names, most: int = 5) -> str:

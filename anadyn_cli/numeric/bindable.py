@@ -12,7 +12,8 @@ appear in the generated code as module-level variables:
     def bind(values): ...               # sets them, in PARAMETERS order
     def start(): ...                    # x0 = [q(0), dq(0)] at the bound values
     def inertial(): ...                 # masses and inertia tensors that depend on them
-    def motion(t): ...                  # the prescribed motion (robots with a trajectory),
+    def motion(t): ...                  # the prescribed motion (robots with a trajectory:
+                                        # numeric.trajectory.derivatives, parameters free)
     def duration(): ...                 # its duration; TRAJECTORY = (kind, nan)
 
 ``BoundModel`` is a ``NumericModel`` over such a module with ``bind``.  The
@@ -46,12 +47,12 @@ import sympy as sp
 from ..errors import ModelError
 from ..model import expressions, yamlschema
 from ..model.robot import Controller, Coordinate, Robot, Trajectory
+from . import trajectory
 from .codegen import Function, module_source
 from .bound import BoundModel  # noqa: F401  (re-exported: the model of a bindable module)
 from ..model.expressions import as_expr
 
 PREFIX = "_free_"                 # generated-code name of a free parameter or gain
-T = sp.Symbol("t", real=True)
 
 
 def free_symbol(name: str) -> sp.Symbol:
@@ -190,7 +191,8 @@ def fold(robot: Robot, text: str, names: tuple[str, ...]) -> Folding:
                     follows["trajectory"].append(f"{key}.{name}")
         paths = {}
         for name, value in tr.expressions.items():
-            expr = depends((raw.get("expressions") or {}).get(name), {**symbols, "t": T})
+            expr = depends((raw.get("expressions") or {}).get(name),
+                           {**symbols, "t": trajectory.T})
             paths[name] = value if expr is None else expr
             if expr is not None:
                 follows["trajectory"].append(f"expressions.{name}")
@@ -274,25 +276,15 @@ def source(folding: Folding, formulation: str = "kane",
                                      "in INERTIAL_BODIES at the bound values."))
     motion_error = ""
     if robot.trajectory is not None:
-        from . import trajectory
-
-        q = [e.xreplace(values) for e in trajectory.expressions(robot)]
-        dq = [sp.diff(e, T) for e in q]
-        ddq = [sp.diff(e, T) for e in dq]
-        rough = [c.name for c, e in zip(robot.coordinates, ddq)
-                 if e.has(sp.DiracDelta, sp.Derivative, sp.Subs)]
-        if rough:
-            motion_error = str(ModelError(
-                f"{rough[0]}(t) is not twice differentiable (its rate jumps); inverse "
-                "dynamics needs a finite acceleration", source=robot.source,
-                path=f"trajectory.expressions.{rough[0]}"))
-    if robot.trajectory is not None and not motion_error:
-        functions.append(Function("motion", (T,), (("q", q), ("dq", dq), ("ddq", ddq)), True,
-                                  "Prescribed q(t), dq(t), ddq(t); arrays of shape "
-                                  "t.shape + (n,)."))
-        functions.append(Function("duration", (), (("T", [robot.trajectory.duration
-                                                          .xreplace(values)]),),
-                                  False, "Duration of the prescribed motion, s."))
+        try:
+            functions.append(trajectory.function(
+                *trajectory.derivatives(robot, values, free_set)))
+        except ModelError as err:       # raised when inverse asks for the motion
+            motion_error = str(err)
+        else:
+            functions.append(Function("duration", (), (("T", [robot.trajectory.duration
+                                                              .xreplace(values)]),),
+                                      False, "Duration of the prescribed motion, s."))
     stray = set()
     for f in functions:
         for _, out in f.outputs:

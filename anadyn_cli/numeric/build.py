@@ -50,6 +50,12 @@ def describe(formulation: str | None, evaluator: str) -> str:
     return "recursive Newton-Euler" if evaluator == "recursive" else f"{formulation} closed forms"
 
 
+def titled(title: str, formulation: str | None, evaluator: str) -> str:
+    """A plot title followed by what computed its numbers: ``rr: simulate (recursive
+    Newton-Euler)``; the title alone when that is unknown."""
+    return f"{title} ({describe(formulation, evaluator)})" if evaluator else title
+
+
 def _request(formulation: str | None, evaluator: str | None) -> tuple[str | None, str | None]:
     """(formulation, evaluator) asked for, checked; formulation None (evaluator None or
     "recursive"): the robot decides (``numeric_model``)."""

@@ -33,15 +33,19 @@ from ..symbolic.eom import EquationsOfMotion
 from ..model.robot import Robot
 
 
-def control_laws(robot: Robot) -> sp.Matrix:
-    """tau(t, q, dq) with parameters and gains substituted (zero without a controller)."""
+def control_laws(robot: Robot, symbolic: bool = False) -> sp.Matrix:
+    """tau_c(t, q, dq), one row per actuator; zeros without a controller.  The
+    parameters and gains are substituted (as numbers, or as the free symbols of a
+    bindable copy), or stay symbols when ``symbolic`` (the export's choice)."""
     m = len(robot.actuators)
     if robot.controller is None:
         return sp.zeros(m, 1)
-    values = robot.parameter_substitution()
-    values.update({sp.Symbol(k, real=True): v for k, v in robot.controller.gains.items()})
-    return sp.Matrix([robot.controller.laws[a.name].xreplace(values)
-                      for a in robot.actuators])
+    values = robot.parameter_substitution(symbolic)
+    if not symbolic:
+        numeric = robot.parameter_substitution()
+        values.update({sp.Symbol(k, real=True): v.xreplace(numeric)
+                       for k, v in robot.controller.gains.items()})
+    return sp.Matrix([robot.controller.laws[a.name].xreplace(values) for a in robot.actuators])
 
 
 def powers(robot: Robot, kin: kinematics.Kinematics) -> list[sp.Expr] | None:
@@ -71,7 +75,7 @@ def forces_source(robot: Robot) -> str:
     """``powers(t, q, dq)`` (vectorized) for generated code that lacks it (the recursive
     path), from the kinematics: an independent check of that code's F in ``check``'s
     energy balance.  "" for a robot without loads or joint forces."""
-    if not robot.loads and not any(b.joint.type != "fixed" and (
+    if not robot.loads and not any(b.joint.joint_type.moving and (
             b.joint.damping != 0 or b.joint.friction != 0 or b.joint.stiffness != 0)
             for b in robot.bodies):
         return ""                   # (without building the kinematics)

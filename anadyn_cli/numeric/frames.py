@@ -41,7 +41,7 @@ class Skeleton:
     initial: tuple[float, ...]              # q(0)
     bodies: tuple[str, ...]
     parents: tuple[int, ...]                # index of the parent body, -1 for ground
-    joint_types: tuple[str, ...]            # revolute, prismatic, fixed
+    joint_types: tuple[str, ...]            # type words of model.joints.JOINT_TYPES
     displacements: tuple[str, ...]          # the joint displacement as written, "q2 - q1"
     gravity: tuple[float, float, float]     # world axes, m/s^2
 
@@ -108,7 +108,7 @@ def source(robot) -> tuple[Skeleton, str]:
         joint_origin = sp.Matrix([a.xreplace(robot.parameter_substitution())
                                   for a in b.body.joint.origin])
         joint = sp.Matrix(parent_origin + parent_R * joint_origin)
-        axis = sp.Matrix(b.R * b.axis) if b.body.joint.type != "fixed" else sp.zeros(3, 1)
+        axis = sp.Matrix(b.R * b.axis) if b.body.joint.joint_type.moving else sp.zeros(3, 1)
         origins.append(origin)
         rotations.append(sp.Matrix(b.R))
         coms.append(sp.Matrix(b.position))
@@ -137,7 +137,7 @@ def source(robot) -> tuple[Skeleton, str]:
         parents=tuple(-1 if b.parent is None else b.parent for b in kin.bodies),
         joint_types=tuple(b.joint.type for b in robot.bodies),
         displacements=tuple(sp.sstr(b.joint.displacement, order="none")
-                            if b.joint.type != "fixed" else ""
+                            if b.joint.joint_type.moving else ""
                             for b in robot.bodies),
         gravity=tuple(float(g.xreplace(values)) for g in robot.gravity))
     return skeleton, code

@@ -60,6 +60,12 @@ class Differentiator:
                                                    f"greater than the order {self.order}, "
                                                    f"got {self.window!r}")
 
+    @classmethod
+    def given(cls, window: int | None, order: int | None) -> "Differentiator":
+        """The filter with ``window`` and ``order`` where given, the defaults elsewhere."""
+        return cls(DEFAULT_WINDOW if window is None else window,
+                   DEFAULT_ORDER if order is None else order)
+
     def describe(self) -> str:
         return f"Savitzky-Golay, {self.window} samples, degree {self.order}"
 

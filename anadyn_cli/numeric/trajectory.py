@@ -9,12 +9,17 @@ q0: a coordinate left out holds still):
     expression  the file's expression of t (left out: the initial value)
     waypoints   rest-to-rest segments (cycloidal or quintic) from pose to pose,
                 one duration each (``model.waypoints``)
+    spline      quintics through samples of q, dq and ddq (``model.spline``)
 
 The rest-to-rest kinds start and end (waypoints: reach every pose) with zero
 rate and zero acceleration.
 The rates and accelerations are SymPy's exact derivatives of these
 expressions (never finite differences), compiled into one vectorized NumPy
 function ``motion(t) -> q, dq, ddq`` (arrays of shape t.shape + (n,)).
+
+``derivatives`` is the one generator of that motion: ``motion`` compiles it
+with every parameter a number (a plain run), ``numeric.bindable`` with the
+swept parameters left as free symbols, bound per run.
 """
 from __future__ import annotations
 
@@ -55,7 +60,7 @@ def expressions(robot: Robot) -> list[sp.Expr]:
     duration = trajectory.duration
     result = []
     for c in robot.coordinates:
-        if trajectory.kind == "expression":
+        if trajectory.kind in ("expression", "spline"):
             result.append(trajectory.expressions.get(c.name, c.initial))
             continue
         if trajectory.kind == "waypoints":       # the first pose's gaps: initial values
@@ -72,16 +77,24 @@ def expressions(robot: Robot) -> list[sp.Expr]:
 
 def missing(robot: Robot) -> ModelError:
     return ModelError("no trajectory section: inverse dynamics needs a prescribed motion "
-                      "(trajectory: kind cycloidal, quintic, expression or waypoints)",
+                      "(trajectory: kind cycloidal, quintic, expression, waypoints or spline)",
                       source=robot.source)
 
 
-def motion(robot: Robot) -> Motion:
-    """The robot's prescribed motion with exact derivatives, compiled for NumPy."""
+def derivatives(robot: Robot, values: dict | None = None, free=frozenset()
+                ) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
+    """q(t), dq(t), ddq(t) of the robot's trajectory section, exact (SymPy, in ``T``).
+
+    The parameters are the robot's: numbers after the loader, or the ``free``
+    symbols a bindable copy keeps (``values``: its parameter substitution, applied
+    to q(t)).  ModelError when q(t) depends on anything but ``t`` and ``free``, or
+    is not twice differentiable."""
     q = expressions(robot)
-    names = tuple(c.name for c in robot.coordinates)
+    if values is not None:
+        q = [e.xreplace(values) for e in q]
+    names = [c.name for c in robot.coordinates]
     for name, expr in zip(names, q):
-        stray = expr.free_symbols - {T}
+        stray = expr.free_symbols - {T} - set(free)
         if stray:
             raise ModelError(f"{name}(t) may depend only on t, found "
                              f"{', '.join(sorted(map(str, stray)))}",
@@ -93,10 +106,22 @@ def motion(robot: Robot) -> Motion:
             raise ModelError(f"{name}(t) is not twice differentiable (its rate jumps); "
                              "inverse dynamics needs a finite acceleration",
                              source=robot.source, path=f"trajectory.expressions.{name}")
-    function = Function("motion", (T,), (("q", q), ("dq", dq), ("ddq", ddq)), True,
-                        "Prescribed q(t), dq(t), ddq(t); arrays of shape t.shape + (n,).")
-    source = module_source([function], f"prescribed motion of {robot.name} "
-                                       f"({robot.trajectory.kind}), from {robot.source}")
+    return q, dq, ddq
+
+
+def function(q: list, dq: list, ddq: list) -> Function:
+    """The generated ``motion(t) -> q, dq, ddq`` (vectorized) of ``derivatives``' result."""
+    return Function("motion", (T,), (("q", q), ("dq", dq), ("ddq", ddq)), True,
+                    "Prescribed q(t), dq(t), ddq(t); arrays of shape t.shape + (n,).")
+
+
+def motion(robot: Robot) -> Motion:
+    """The robot's prescribed motion with exact derivatives, compiled for NumPy."""
+    q, dq, ddq = derivatives(robot)
+    names = tuple(c.name for c in robot.coordinates)
+    source = module_source([function(q, dq, ddq)],
+                           f"prescribed motion of {robot.name} "
+                           f"({robot.trajectory.kind}), from {robot.source}")
     namespace: dict[str, object] = {}
     exec(compile(source, "<anadyn trajectory>", "exec"), namespace)   # noqa: S102
     return Motion(robot.trajectory.kind, float(robot.trajectory.duration), names,

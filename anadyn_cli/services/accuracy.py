@@ -53,7 +53,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import NumericalError, SettingError
+from .. import errors
+from ..errors import NumericalError
 from ..model.info import RobotInfo
 from ..numeric import constrained, integrators
 from ..numeric.build import computation
@@ -267,10 +268,9 @@ def study(model: NumericModel, methods=integrators.METHODS,
           reference_seconds: float = REFERENCE_SECONDS, t_end: float | None = None,
           output_step: float | None = None, progress=None) -> AccuracyStudy:
     """Run every (method, rtol) against the references; see the module docstring."""
-    if repeats < 1:
-        raise SettingError("repeats", f"must be at least 1, got {repeats}")
-    if max_calls < 100:
-        raise SettingError("max_calls", f"must be at least 100, got {max_calls}")
+    errors.check("repeats", repeats)
+    errors.check("max_calls", max_calls)
+    errors.check("reference_calls", reference_calls)
     robot = model.info
     settings = resolve(robot, t_end=t_end, output_step=output_step)
     grid = output_grid(settings.t_end, settings.output_step)
@@ -427,6 +427,7 @@ def figure(result: AccuracyStudy):
     return fig
 
 
+@output.one_set
 def write(result: AccuracyStudy, out: Path, plot: bool = True,
           plot_format: str = "png") -> list[Path]:
     """accuracy.csv, accuracy.png (or .svg, .pdf) and accuracy.json in ``out``."""

@@ -59,7 +59,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import CheckFailed, NumericalError, SettingError, positive
+from .. import errors
+from ..errors import CheckFailed, NumericalError, positive
 from ..model.info import RobotInfo
 from ..numeric import constrained, integrators
 from ..numeric.build import computation
@@ -288,10 +289,8 @@ def check(model: NumericModel, rtol: float | None = None,
     """Simulate ``robot`` and examine the path; see the module docstring."""
     positive("max_condition", max_condition)
     positive("energy_tol", energy_tol)
-    if samples < 1:
-        raise SettingError("samples", f"must be at least 1, got {samples}")
-    if probe_calls < 100:
-        raise SettingError("probe_calls", f"must be at least 100, got {probe_calls}")
+    errors.check("samples", samples)
+    errors.check("probe_calls", probe_calls)
     robot = model.info
     settings = resolve(robot, rtol=rtol, atol=atol, t_end=t_end, output_step=output_step)
     grid = output_grid(settings.t_end, settings.output_step)
@@ -500,6 +499,7 @@ def summary(report: StabilityReport) -> dict:
     }
 
 
+@output.one_set
 def write(report: StabilityReport, out: Path) -> list[Path]:
     """check.csv (the path's figures per eigenvalue sample) and check.json."""
     out = output.prepare_dir(out)

@@ -42,6 +42,7 @@ from ..model.info import RobotInfo
 from ..numeric import constrained, integrators
 from ..numeric.integrators import Problem
 from ..numeric.measured import MeasuredMotion
+from ..numeric.build import titled
 from ..numeric.model import NumericModel
 from ..numeric.settings import trajectory_grid
 from .. import files as output
@@ -618,6 +619,7 @@ def roundtrip_line(result: InverseResult) -> str:
             f"{trip.steps} steps, {trip.wall:.3f} s]")
 
 
+@output.one_set
 def write(result: InverseResult, out: Path, plot: bool = True, plot_format: str = "png",
           rates: bool = False) -> list[Path]:
     """inverse.csv, inverse.png (or .svg, .pdf; the rates and accelerations too if
@@ -639,8 +641,9 @@ def write(result: InverseResult, out: Path, plot: bool = True, plot_format: str 
 
 
 def plot_title(result: InverseResult) -> str:
-    """The robot and the command (how it was computed is in inverse.json)."""
-    return f"{result.robot.name}: inverse"
+    """The robot, the command and what computed the numbers (``build.describe``); the
+    round trip's settings are in inverse.json."""
+    return titled(f"{result.robot.name}: inverse", result.formulation, result.evaluator)
 
 
 def summary(result: InverseResult) -> dict:

@@ -14,10 +14,12 @@ its ends, and the efforts are quadratic through u_k, u_mid, u_k+1.  Objective
 ``effort``: the Simpson sum of |u|^2 dt over [0, T], T given; ``time``: T.
 Constraints at every knot and midpoint: the joints' position bounds on
 theta(q), their rate bounds on dtheta/dt, the actuators' effort bounds (the
-file's ``limits``, imposed ``BACKOFF`` inside them); start and goal at rest.  IPOPT (shipped with CasADi)
-solves it; ``defect`` is the largest collocation residual, ``margins`` the
+file's ``limits``, imposed ``BACKOFF`` inside them but for the start and goal poses); start
+and goal at rest.  IPOPT (shipped with CasADi) solves it, from straight lines
+at rest; ``defect`` is the largest collocation residual, ``margins`` the
 smallest distance of every bounded quantity to its bound over the points.
-Needs the optional extra ``casadi``.
+The file's control laws play no part: the efforts are the unknowns.  Needs
+the optional extra ``casadi``.
 """
 from __future__ import annotations
 
@@ -77,7 +79,10 @@ def _tree(ca, node, values: dict):
     operation, *arguments = node
     function = OPERATIONS[operation]
     function = getattr(ca, function) if isinstance(function, str) else function
-    return reduce(function, [_tree(ca, a, values) for a in arguments])
+    arguments = [_tree(ca, a, values) for a in arguments]
+    if operation in ("+", "*") or len(arguments) > 2:          # n-ary: folded
+        return reduce(function, arguments)
+    return function(*arguments)
 
 
 def _bounded(ca, info: RobotInfo, q, dq, u) -> list[tuple[str, str, object, float, float]]:
@@ -106,10 +111,10 @@ def endpoints(robot, goal: dict | None, start: dict | None) -> tuple[np.ndarray,
     names = [c.name for c in robot.coordinates]
     section = robot.trajectory if robot.trajectory is not None and robot.trajectory.kind in (
         "cycloidal", "quintic") else None
-    for given in (goal or {}, start or {}):
+    for setting, given in (("goal", goal or {}), ("start", start or {})):
         for name in given:
             if name not in names:
-                raise SettingError("goal", f"names unknown coordinate {name!r}; coordinates: "
+                raise SettingError(setting, f"names unknown coordinate {name!r}; coordinates: "
                                    f"{', '.join(names)}")
     q0 = np.array([float((start or {}).get(c.name, section.start.get(c.name, c.initial)
                                                if section else c.initial))
@@ -136,7 +141,8 @@ def optimize(robot, goal: dict | None = None, start: dict | None = None,
 
     ca = export_casadi.require()
     if objective not in OBJECTIVES:
-        raise SettingError("objective", f"must be one of {', '.join(OBJECTIVES)}, not {objective!r}")
+        raise SettingError("objective", f"must be one of {', '.join(OBJECTIVES)}, "
+                                        f"not {objective!r}")
     if not 1 <= intervals <= MAX_INTERVALS:
         raise SettingError("intervals", f"must be 1 to {MAX_INTERVALS}, got {intervals}")
     if duration is None and robot.trajectory is not None:
@@ -153,11 +159,10 @@ def optimize(robot, goal: dict | None = None, start: dict | None = None,
     n, m = len(q0), len(robot.actuators)
     zero = np.zeros(n)
     for label, pose in (("start", q0), ("goal", qf)):
-        for name, quantity, value, lower, upper in _bounded(ca, info, pose, zero, np.zeros(m)):
-            value = float(value)
-            if quantity == "position" and not lower <= value <= upper:
-                raise ModelError(f"unreachable {label}: {name} = {value:g} is outside its "
-                                 f"limits [{lower:g}, {upper:g}]", source=robot.source)
+        for name, quantity, theta, lower, upper in _bounded(ca, info, pose, zero, np.zeros(m)):
+            if quantity == "position" and not lower <= float(theta) <= upper:
+                raise ModelError(f"unreachable {label}: {name} = {float(theta):g} is outside "
+                                 f"its limits [{lower:g}, {upper:g}]", source=robot.source)
     fd = export_casadi.functions(trace(robot))["forward_dynamics"]
     opti = ca.Opti()
     points = 2 * intervals + 1
@@ -177,11 +182,13 @@ def optimize(robot, goal: dict | None = None, start: dict | None = None,
     opti.subject_to(X[:, 0] == np.concatenate([q0, zero]))
     opti.subject_to(X[:, -1] == np.concatenate([qf, zero]))
     for j in range(points):
-        for _, _, value, lower, upper in _bounded(ca, info, X[:n, j], X[n:, j], U[:, j]):
+        for _, quantity, value, lower, upper in _bounded(ca, info, X[:n, j], X[n:, j], U[:, j]):
+            end = quantity == "position" and j in (0, points - 1)   # the poses may lie on a bound
+            inside = 0.0 if end else BACKOFF
             if np.isfinite(lower):
-                opti.subject_to(value >= lower + BACKOFF * max(1.0, abs(lower)))
+                opti.subject_to(value >= lower + inside * max(1.0, abs(lower)))
             if np.isfinite(upper):
-                opti.subject_to(value <= upper - BACKOFF * max(1.0, abs(upper)))
+                opti.subject_to(value <= upper - inside * max(1.0, abs(upper)))
     if objective == "time":
         opti.subject_to(T >= 1e-3)
         opti.set_initial(T, duration if duration is not None else 1.0)
@@ -245,13 +252,48 @@ def summary(result: OptimizeResult) -> dict:
             "goal_error": result.goal_error, "margins": result.margins}
 
 
+def section(result: OptimizeResult) -> dict:
+    """The motion as a robot file's ``trajectory`` section of kind ``spline``
+    (``model.spline``): q, dq, ddq at the knots and midpoints, quintics between."""
+    names = result.coordinates
+    return {"kind": "spline", "times": [float(t) for t in result.t],
+            **{key: {c: [float(v) for v in values[:, i]] for i, c in enumerate(names)}
+               for key, values in (("q", result.q), ("dq", result.dq), ("ddq", result.ddq))}}
+
+
+def robot_file(result: OptimizeResult, robot_text: str) -> str:
+    """A YAML robot file's text with its trajectory replaced by the motion (its other
+    sections as they were, comments dropped)."""
+    import yaml
+
+    data = yaml.safe_load(robot_text)
+    data["trajectory"] = section(result)
+    return (f"# {result.robot} with the motion of anadyn optimize ({result.objective}, "
+            f"{result.status}); every other section as in the original\n"
+            + yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100))
+
+
 @output.one_set
-def write(result: OptimizeResult, out: Path) -> list[Path]:
-    """optimize.csv (the motion ``inverse --motion`` replays) and optimize.json."""
+def write(result: OptimizeResult, out: Path, source: str | None = None) -> list[Path]:
+    """optimize.csv (the motion ``inverse --motion`` replays), trajectory.yaml (the
+    section for a robot file), when ``source`` (the robot's file) is YAML
+    NAME_optimized.yaml (that file with this trajectory: ``inverse`` replays it), and
+    optimize.json."""
+    import yaml
+
+    yaml_file = source is not None and Path(source).suffix.lower() in (".yaml", ".yml")
+    robot_text = Path(source).read_text(encoding="utf-8") if yaml_file else None
     out = output.prepare_dir(out)
-    written = [out / "optimize.csv", out / "optimize.json"]
+    written = [out / "optimize.csv", out / "trajectory.yaml"]
     to_csv(result, written[0])
-    output.write_json(written[1], summary(result))
+    output.write_text(written[1], yaml.safe_dump({"trajectory": section(result)},
+                                                 sort_keys=False, default_flow_style=None,
+                                                 width=100))
+    if robot_text is not None:
+        written.append(out / f"{result.robot}_optimized.yaml")
+        output.write_text(written[-1], robot_file(result, robot_text))
+    written.append(out / "optimize.json")
+    output.write_json(written[-1], summary(result))
     return written
 
 

@@ -154,6 +154,7 @@ def points(d: Drawing) -> dict:
     return bodies
 
 
+@output.one_set
 def write_drawing(d: Drawing, out: Path, plot_format: str = "png") -> list[Path]:
     """show.png (or .svg, .pdf) and show.json in ``out``."""
     out = output.prepare_dir(out)
@@ -307,6 +308,7 @@ def write_mp4(animation: Animation, path: Path, ffmpeg: str) -> None:
         raise
 
 
+@output.one_set
 def write_animation(animation: Animation, out: Path, mp4: bool = True) -> tuple[list[Path], str]:
     """animate.gif (+ animate.mp4 when ffmpeg is there) and animate.json; the second
     value says what happened to the MP4."""

@@ -16,6 +16,7 @@ import numpy as np
 from ..errors import NumericalError
 from ..model.info import RobotInfo, Simulation
 from ..numeric import constrained, integrators
+from ..numeric.build import titled
 from ..numeric.model import NumericModel
 from ..numeric.settings import output_grid, resolve
 from .. import files as output
@@ -108,6 +109,7 @@ def columns(result: SimulationResult) -> tuple[list[str], list[np.ndarray]]:
     return header, data
 
 
+@output.one_set
 def write(result: SimulationResult, out: Path, plot: bool = True, plot_format: str = "png",
           rates: bool = False) -> list[Path]:
     """simulate.csv (+ the plot, png/svg/pdf, with the rates if asked); on failure only
@@ -154,8 +156,9 @@ def summary(result: SimulationResult) -> dict:
 
 
 def plot_title(result: SimulationResult) -> str:
-    """The robot and the command (the method and tolerances are in simulate.json)."""
-    return f"{result.robot.name}: simulate"
+    """The robot, the command and what computed the numbers (``build.describe``); the
+    method and tolerances are in simulate.json."""
+    return titled(f"{result.robot.name}: simulate", result.formulation, result.evaluator)
 
 
 def _panels(result: SimulationResult, rates: bool = False) -> list:

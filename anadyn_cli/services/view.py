@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .. import files as output
+from ..model.joints import JOINT_TYPES
 
 MAX_FRAMES = 600
 MAX_RUN_BYTES = 256 * 1024 * 1024
@@ -191,13 +192,15 @@ def view(robot, run: Run | None = None, urdf: Path | None = None, package_paths=
     return View(sk.name, title, scene, warnings, note, timings)
 
 
+@output.one_set
 def write(result: View, out: Path, name: str = "view.html") -> list[Path]:
     """view.html (or ``name``) and view.json in ``out``."""
     out = output.prepare_dir(out)
     page = out / name
-    output.write_text(page, result.html())
+    html = result.html().encode("utf-8")
+    output.write_bytes(page, html)
     output.write_json(out / "view.json", {**result.figures(), "page": str(page),
-                                          "bytes": page.stat().st_size})
+                                          "bytes": len(html)})
     return [page, out / "view.json"]
 
 
@@ -234,7 +237,8 @@ def _shapes(sk, reference, extent: float, urdf: Path | None,
 
 def _generated(i: int, sk, pose, radius: float) -> list[dict]:
     """Cylinders from body i's origin to its children's joints (or its tip), and a
-    sphere (revolute) or box (prismatic) at its origin, all in body axes."""
+    sphere (a joint that turns: revolute) or a box (one that slides: prismatic) at its
+    origin, all in body axes."""
     color = list(PALETTE[i % len(PALETTE)]) + [1.0]
     R, origin = pose.R[i], pose.origin[i]
     ends = [pose.joint[k] for k in sk.children(i)] or [pose.tip[i]]
@@ -245,10 +249,11 @@ def _generated(i: int, sk, pose, radius: float) -> list[dict]:
         if length > radius:
             shapes.append({"body": i, "kind": "cylinder", "size": [0.6 * radius, length],
                            "matrix": _flat(_along(local)), "color": color})
-    if sk.joint_types[i] == "revolute":
+    kind = JOINT_TYPES[sk.joint_types[i]]
+    if kind.angular:
         shapes.append({"body": i, "kind": "sphere", "size": [radius * 1.3],
                        "matrix": _flat(np.eye(4)), "color": color})
-    elif sk.joint_types[i] == "prismatic":
+    elif kind.linear:
         shapes.append({"body": i, "kind": "box", "size": [radius * 2.4] * 3,
                        "matrix": _flat(np.eye(4)), "color": color})
     return shapes

@@ -27,6 +27,13 @@ at once (SIGTERM, SIGKILL ``STOP_GRACE`` s later; they ignore SIGINT
 themselves, since a terminal's Ctrl-C reaches the whole process group and the
 main process ends them) and cancels the pieces on Dask.
 
+Commands (``run_commands``: a batch's jobs, each a ``Command``: an argv and a
+timeout) run as local processes, up to ``jobs`` at a time, each in a process
+group of its own (threads wait on them); one over its timeout is killed with
+its whole group (its own workers too).  An interruption stops every running
+command's group (SIGTERM, then SIGKILL after ``STOP_GRACE`` s) and starts no
+more.  ``run_command`` runs one the same way (a batch job on a Dask worker).
+
 A piece's result depends only on the payload and the piece, so the executors
 give identical results.  Dask reruns the pieces of a worker that is lost
 (its scheduler's ``allowed-failures``, default 3) and retries a piece that
@@ -40,12 +47,15 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+import signal
+import subprocess
 import threading
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+from .. import errors
 from ..errors import ModelError
 
 ENVIRONMENT = "ANADYN_SCHEDULER"     # a Dask scheduler address, when --scheduler is not given
@@ -53,7 +63,8 @@ RETRIES = 2                          # Dask: reruns of a piece that raised
 ANSWER_TIMEOUT = 10.0                # s a scheduler has to connect, or to answer a request
 ALIVE_EVERY = 30.0                   # s without a result before asking if the scheduler lives
 NO_WORKERS_TIMEOUT = 120.0           # s a run waits for a cluster that has no workers
-STOP_GRACE = 1.0                     # s local workers get to end on SIGTERM, then SIGKILL
+STOP_GRACE = 1.0                     # s local workers (and commands) get after SIGTERM,
+                                     # then SIGKILL
 STATES_KEPT = 4                      # worker-side states kept per thread (LRU)
 
 _PAYLOADS: dict[str, tuple[Callable, Any]] = {}      # key -> (setup, payload), per process
@@ -97,10 +108,7 @@ def scheduler_address(given: str | None) -> str | None:
 
 
 def check_jobs(jobs: int | None) -> int:
-    workers = (os.cpu_count() or 1) if jobs is None else jobs
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ModelError(f"--jobs must be 1 or more, got {workers}")
-    return workers
+    return (os.cpu_count() or 1) if jobs is None else errors.check("jobs", jobs)
 
 
 def chunks(count: int, workers: int, most: int = 50, per_worker: int = 16) -> list[range]:
@@ -228,6 +236,131 @@ def _stop(processes: list) -> None:
         if process.is_alive():
             process.kill()
             process.join(STOP_GRACE)
+
+
+# ----------------------------------------------------------------------------
+# commands: local processes, each in a process group of its own
+# ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Command:
+    """``argv`` run as a process; killed with its group after ``timeout`` s (None: no limit)."""
+    argv: tuple
+    timeout: float | None = None
+
+
+@dataclass
+class Finished:
+    """How a command ended: ``code`` is None when it timed out or could not start."""
+    code: int | None
+    stdout: str
+    stderr: str
+    wall: float
+    timed_out: bool = False
+    started: bool = True
+
+
+class Commands:
+    """The command processes running now; ``stop`` ends them all, each with its group."""
+
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.processes: set = set()
+        self.stopped = False
+
+    def run(self, command: Command) -> Finished:
+        """Run ``command`` to its end (or its timeout, or ``stop``); an OSError from
+        starting it comes back as a ``Finished`` that did not start."""
+        start = time.perf_counter()
+        with self.lock:
+            if self.stopped:
+                return Finished(None, "", "", 0.0)
+            try:
+                process = subprocess.Popen(
+                    list(command.argv), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                    stderr=subprocess.PIPE, text=True, errors="replace",
+                    start_new_session=True)
+            except OSError as err:
+                return Finished(None, "", str(err), 0.0, started=False)
+            self.processes.add(process)
+        try:
+            try:
+                stdout, stderr = process.communicate(timeout=command.timeout)
+                code, timed_out = process.returncode, False
+            except subprocess.TimeoutExpired:
+                _signal_group(process, signal.SIGKILL)
+                stdout, stderr = process.communicate()
+                code, timed_out = None, True
+        finally:
+            with self.lock:
+                self.processes.discard(process)
+        return Finished(code, stdout, stderr, time.perf_counter() - start, timed_out)
+
+    def stop(self) -> None:
+        """SIGTERM to every running command's group, SIGKILL ``STOP_GRACE`` s later to
+        those still there; later commands do not start."""
+        with self.lock:
+            self.stopped = True
+            processes = list(self.processes)
+        for process in processes:
+            _signal_group(process, signal.SIGTERM)
+        deadline = time.monotonic() + STOP_GRACE
+        for process in processes:
+            try:
+                process.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                pass
+            _signal_group(process, signal.SIGKILL)     # its workers too, if it left any
+
+
+def _signal_group(process, signum: int) -> None:
+    try:
+        os.killpg(process.pid, signum)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+def run_command(command: Command) -> Finished:
+    """One command in a process group of its own (see ``Commands.run``)."""
+    return Commands().run(command)
+
+
+def run_commands(commands: list, jobs: int | None = None,
+                 on_start: Callable[[int], None] | None = None,
+                 on_done: Callable[[int, Finished], None] | None = None) -> Run:
+    """Run every ``Command``, ``jobs`` at a time (default: all cores).
+
+    ``on_start(index)`` runs on a waiting thread just before a command starts (an
+    exception there ends the run); ``on_done(index, finished)`` in this thread as
+    each ends.  Any BaseException while waiting (an interruption) stops them all.
+    """
+    start = time.perf_counter()
+    workers = check_jobs(jobs)
+    running = Commands()
+    results: list = [None] * len(commands)
+
+    def one(index: int) -> Finished | None:
+        if running.stopped:
+            return None
+        if on_start is not None:
+            on_start(index)
+        return running.run(commands[index])
+
+    pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="anadyn-command")
+    try:
+        pending = {pool.submit(one, i): i for i in range(len(commands))}
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                index = pending.pop(future)
+                results[index] = future.result()
+                if on_done is not None:
+                    on_done(index, results[index])
+    except BaseException:                  # interrupted (or on_start refused): stop all
+        running.stop()
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return Run(results, "local processes", workers, wall=time.perf_counter() - start)
 
 
 # ----------------------------------------------------------------------------

@@ -88,7 +88,7 @@ def joint_forces(robot: Robot, kin: Kinematics) -> tuple[JointForce, ...]:
     found = []
     for i, b in enumerate(kin.bodies):
         joint = b.body.joint
-        if joint.type == "fixed":
+        if not joint.joint_type.moving:
             continue
         velocity = sub(joint.friction_velocity)
         if isinstance(velocity, sp.Float):      # the default 0.01: exact, as the file's are

@@ -121,9 +121,9 @@ class GenericModel(NumericModel):
         return self.rhs(t, np.asarray(x, dtype=float))[self.n:].tolist()
 
     def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
-        """[[0, I], [d(ddq)/dx]]: forward differences of the kernel's accelerations at
-        fixed efforts, plus M^-1 B d(tau)/dx with the laws' derivatives by central
-        differences (step ~eps^(1/3))."""
+        """[[0, I], [M^-1 K]]: the kernel's (K by central differences of the
+        Newton-Euler recursion at fixed efforts), plus M^-1 B d(tau)/dx with the
+        laws' derivatives by central differences (step ~eps^(1/3))."""
         n, n2 = self.n, 2 * self.n
         x = np.ascontiguousarray(x, dtype=float)
         J = np.empty((n2, n2))

@@ -56,6 +56,10 @@ static size_t doubles_needed(int nb, int n, int nm, int mode) {
 
 /* theta = A q + c, dtheta = A dq */
 static void joint_map(const Model *m, const double *q, double *out, int offset) {
+    if (m->mode == 0) {
+        for (int j = 0; j < m->nm; j++) out[j] = offset ? q[j] + m->c[j] : q[j];
+        return;
+    }
     for (int j = 0; j < m->nm; j++) {
         double v = offset ? m->c[j] : 0.0;
         for (int k = 0; k < m->n; k++) v += m->A[j * m->n + k] * q[k];
@@ -225,15 +229,17 @@ static double dot6(const double *a, const double *b) {
 }
 
 /* tau_passive = -damping dtheta - friction tanh(dtheta / v) - stiffness (theta - rest) */
+static double passive_of(const Model *m, int j, double theta, double dtheta) {
+    const double *p = m->passive + PASSIVE * j;
+    double v = 0.0;
+    if (p[0] != 0.0) v -= p[0] * dtheta;
+    if (p[1] != 0.0) v -= p[1] * tanh(dtheta / p[2]);
+    if (p[3] != 0.0) v -= p[3] * (theta - p[4]);
+    return v;
+}
+
 static void passive(const Model *m, const double *theta, const double *dtheta, double *out) {
-    for (int j = 0; j < m->nm; j++) {
-        const double *p = m->passive + PASSIVE * j;
-        double v = 0.0;
-        if (p[0] != 0.0) v -= p[0] * dtheta[j];
-        if (p[1] != 0.0) v -= p[1] * tanh(dtheta[j] / p[2]);
-        if (p[3] != 0.0) v -= p[3] * (theta[j] - p[4]);
-        out[j] = v;
-    }
+    for (int j = 0; j < m->nm; j++) out[j] = passive_of(m, j, theta[j], dtheta[j]);
 }
 
 /* velocities of every body (6 per body; only: of those marked, the others' left
@@ -298,6 +304,10 @@ static void generalized(const Model *m, const Frame *F, double *f, const double 
                         const double *dth, double *tau, double *pas, double *out) {
     backward_pass(m, F, f, tau);
     passive(m, th, dth, pas);
+    if (m->mode == 0) {
+        for (int k = 0; k < m->n; k++) out[k] = tau[k] - pas[k];
+        return;
+    }
     for (int k = 0; k < m->n; k++) {
         double s = 0.0;
         for (int j = 0; j < m->nm; j++) s += m->A[j * m->n + k] * (tau[j] - pas[j]);
@@ -388,6 +398,34 @@ static int cholesky(double *M, int n) {
         }
     }
     return 0;
+}
+
+/* M = L^T L in place for a mass matrix whose row j couples only joint j's
+   ancestors lam (tree order, parents first: A = 1), L in the lower triangle
+   (Featherstone's LTL factorization, no fill-in); 1 if not positive definite */
+static int tree_factor(double *M, const int *lam, int n) {
+    for (int k = n - 1; k >= 0; k--) {
+        double d = M[k * n + k];
+        if (!(d > 0.0)) return 1;
+        d = sqrt(d);
+        M[k * n + k] = d;
+        for (int i = lam[k]; i >= 0; i = lam[i]) M[k * n + i] /= d;
+        for (int i = lam[k]; i >= 0; i = lam[i])
+            for (int j = i; j >= 0; j = lam[j]) M[i * n + j] -= M[k * n + i] * M[k * n + j];
+    }
+    return 0;
+}
+
+/* b = (L^T L)^-1 b in place (``tree_factor``) */
+static void tree_solve(const double *L, const int *lam, double *b, int n) {
+    for (int k = n - 1; k >= 0; k--) {
+        b[k] /= L[k * n + k];
+        for (int i = lam[k]; i >= 0; i = lam[i]) b[i] -= L[k * n + i] * b[k];
+    }
+    for (int k = 0; k < n; k++) {
+        for (int i = lam[k]; i >= 0; i = lam[i]) b[k] -= L[k * n + i] * b[i];
+        b[k] /= L[k * n + k];
+    }
 }
 
 /* b = (L L^T)^-1 b in place */
@@ -518,22 +556,58 @@ static int accelerations(const Model *m, const double *x, const double *e, doubl
     return finite_all(ddq, n) ? 0 : 2;
 }
 
+/* The joint forces tau (NM) after the bodies marked in mask moved: their new
+   frames Fk and body forces fk (fk of the others: as in the base state), the base
+   state's frames F, accumulated forces acc and joint forces tau0.  Leaves to root,
+   the marked bodies' forces are accumulated anew; the change they bring to an
+   unmarked ancestor (d, where has) is carried up to the root. */
+static void moved_forces(const Model *m, const int *mask, const Frame *F, const Frame *Fk,
+                         double *fk, const double *acc, const double *tau0, double *d,
+                         int *has, double *tau) {
+    memcpy(tau, tau0, sizeof(double) * m->nm);
+    memset(has, 0, sizeof(int) * m->nb);
+    for (int i = m->nb - 1; i >= 0; i--) {
+        int p = PARENT(m, i), j = JOINT(m, i);
+        double S[6], t[6], t0[6];
+        if (!mask[i] && !has[i]) continue;
+        subspace(m, i, S);
+        if (mask[i]) {
+            if (j >= 0) tau[j] = dot6(S, fk + 6 * i);
+            if (p < 0) continue;
+            force_out(Fk + i, fk + 6 * i, t);
+            if (mask[p]) { for (int k = 0; k < 6; k++) fk[6 * p + k] += t[k]; continue; }
+            force_out(F + i, acc + 6 * i, t0);
+            for (int k = 0; k < 6; k++) t[k] -= t0[k];
+        } else {
+            if (j >= 0) tau[j] = tau0[j] + dot6(S, d + 6 * i);
+            if (p < 0) continue;
+            force_out(F + i, d + 6 * i, t);
+        }
+        if (!has[p]) { memset(d + 6 * p, 0, sizeof(double) * 6); has[p] = 1; }
+        for (int k = 0; k < 6; k++) d[6 * p + k] += t[k];
+    }
+}
+
 /* J = [[0, 1], [M^-1 K]] (2N x 2N) at fixed joint efforts e: K = -dID/dx at fixed
-   ddq, column by column by forward differences of the recursive Newton-Euler
-   algorithm (step 1.5e-8 max(1, |x_k|)) redone only on the bodies that a
-   coordinate moves (their subtrees), then solved with the Cholesky factor of
-   M (composite rigid bodies) */
+   ddq, column by column by central differences of the recursive Newton-Euler
+   algorithm (step 6e-6 max(1, |x_k|)) redone only on the bodies that a
+   coordinate moves (their subtrees, and the change of force up to the root),
+   then solved with the factor of M (composite rigid bodies; with A = 1 the
+   tree's LTL factor, else a dense Cholesky factor) */
 static int jacobian(const Model *m, const double *x, const double *e, double *J) {
     int n = m->n, nm = m->nm, nb = m->nb, n2 = 2 * n, code;
     Frame *F = malloc(sizeof(Frame) * 2 * nb);
-    int *mask = malloc(sizeof(int) * nb);
-    double *w = malloc(sizeof(double) * (4 * n + n2 + 7 * nm + 36 * nb + nm * nm + nm * n + n * n));
+    int *mask = malloc(sizeof(int) * (3 * nb + nm));
+    double *w = malloc(sizeof(double) * (4 * n + n2 + 9 * nm + 54 * nb + nm * nm + nm * n + n * n));
     if (!F || !mask || !w) { free(F); free(mask); free(w); return 1; }
     Frame *Fk = F + nb;
-    double *ddq = w, *base = ddq + n, *moved = base + n, *col = moved + n, *xp = col + n,
+    int *has = mask + nb, *own = has + nb, *lam = own + nb;
+    double *ddq = w, *moved = ddq + n, *back = moved + n, *col = back + n,
+           *xp = col + n,
            *th = xp + n2, *dth = th + nm, *ddth = dth + nm, *thk = ddth + nm, *dthk = thk + nm,
-           *tau = dthk + nm, *pas = tau + nm, *v = pas + nm, *a = v + 6 * nb, *f = a + 6 * nb,
-           *vk = f + 6 * nb, *ak = vk + 6 * nb, *fk = ak + 6 * nb, *H = fk + 6 * nb,
+           *tau = dthk + nm, *tau0 = tau + nm, *pas = tau0 + nm, *pas0 = pas + nm, *v = pas0 + nm, *a = v + 6 * nb,
+           *f = a + 6 * nb, *vk = f + 6 * nb, *ak = vk + 6 * nb, *fk = ak + 6 * nb,
+           *acc = fk + 6 * nb, *d = acc + 6 * nb, *H = d + 6 * nb,
            *HA = H + nm * nm, *M = HA + nm * n;
     code = accelerations(m, x, e, ddq);
     if (!code) {
@@ -542,36 +616,64 @@ static int jacobian(const Model *m, const double *x, const double *e, double *J)
         joint_map(m, ddq, ddth, 0);
         frames(m, th, F, NULL);
         forward_pass(m, F, dth, ddth, v, a, f, NULL);
-        memcpy(fk, f, sizeof(double) * 6 * nb);
-        generalized(m, F, fk, th, dth, tau, pas, base);
+        memcpy(acc, f, sizeof(double) * 6 * nb);
+        backward_pass(m, F, acc, tau0);
+        passive(m, th, dth, pas0);
         crba_joint(m, F, H);
         mass(m, H, M, HA);
-        code = cholesky(M, n);
+        for (int i = 0; i < nb; i++) {      /* each joint's nearest moving ancestor */
+            int j = JOINT(m, i), p = PARENT(m, i);
+            while (p >= 0 && JOINT(m, p) < 0) p = PARENT(m, p);
+            if (j >= 0) lam[j] = p < 0 ? -1 : JOINT(m, p);
+        }
+        code = m->mode == 0 ? tree_factor(M, lam, n) : cholesky(M, n);
     }
     memset(J, 0, sizeof(double) * n2 * n2);
     for (int i = 0; i < n; i++) J[i * n2 + n + i] = 1.0;
     memcpy(xp, x, sizeof(double) * n2);
+    memcpy(Fk, F, sizeof(Frame) * nb);
+    memcpy(vk, v, sizeof(double) * 18 * nb);          /* v, a, f: contiguous */
     for (int k = 0; k < n2 && !code; k++) {
         int c = k % n;
-        xp[k] = x[k] + 1.5e-8 * fmax(1.0, fabs(x[k]));
-        double h = xp[k] - x[k];
-        joint_map(m, xp, thk, 1);
-        joint_map(m, xp + n, dthk, 0);
         for (int i = 0; i < nb; i++) {
             int j = JOINT(m, i), p = PARENT(m, i);
-            mask[i] = (j >= 0 && m->A[j * n + c] != 0.0) || (p >= 0 && mask[p]);
+            own[i] = j >= 0 && m->A[j * n + c] != 0.0;
+            mask[i] = own[i] || (p >= 0 && mask[p]);
         }
-        memcpy(Fk, F, sizeof(Frame) * nb);
-        if (k < n) frames(m, thk, Fk, mask);
-        memcpy(vk, v, sizeof(double) * 18 * nb);          /* v, a, f: contiguous */
-        forward_pass(m, Fk, dthk, ddth, vk, ak, fk, mask);
-        generalized(m, Fk, fk, thk, dthk, tau, pas, moved);
-        for (int r = 0; r < n; r++) J[(n + r) * n2 + k] = -(moved[r] - base[r]) / h;
+        double step = 6e-6 * fmax(1.0, fabs(x[k])), h = 0.0;
+        for (int side = 0; side < 2; side++) {
+            double *out = side ? back : moved;
+            xp[k] = x[k] + (side ? -step : step);
+            h += side ? x[k] - xp[k] : xp[k] - x[k];
+            joint_map(m, xp, thk, 1);
+            joint_map(m, xp + n, dthk, 0);
+            if (k < n) frames(m, thk, Fk, own);            /* the others' do not move */
+            forward_pass(m, Fk, dthk, ddth, vk, ak, fk, mask);
+            moved_forces(m, mask, F, Fk, fk, acc, tau0, d, has, tau);
+            memcpy(pas, pas0, sizeof(double) * nm);
+            for (int j = 0; j < nm; j++)
+                if (m->A[j * n + c] != 0.0) pas[j] = passive_of(m, j, thk[j], dthk[j]);
+            for (int r = 0; r < n; r++) {
+                double s = 0.0;
+                if (m->mode == 0) s = tau[r] - pas[r];
+                else for (int j = 0; j < nm; j++) s += m->A[j * n + r] * (tau[j] - pas[j]);
+                out[r] = s;
+            }
+        }
+        for (int r = 0; r < n; r++) J[(n + r) * n2 + k] = -(moved[r] - back[r]) / h;
         xp[k] = x[k];
+        for (int i = 0; i < nb; i++)                       /* back to the base state */
+            if (mask[i]) {
+                Fk[i] = F[i];
+                memcpy(vk + 6 * i, v + 6 * i, sizeof(double) * 6);
+                memcpy(ak + 6 * i, a + 6 * i, sizeof(double) * 6);
+                memcpy(fk + 6 * i, f + 6 * i, sizeof(double) * 6);
+            }
     }
     for (int k = 0; k < n2 && !code; k++) {
         for (int r = 0; r < n; r++) col[r] = J[(n + r) * n2 + k];
-        cholesky_solve(M, col, n);
+        if (m->mode == 0) tree_solve(M, lam, col, n);
+        else cholesky_solve(M, col, n);
         for (int r = 0; r < n; r++) J[(n + r) * n2 + k] = col[r];
     }
     free(F); free(mask); free(w);
@@ -623,9 +725,17 @@ static int tables(PyObject *const *args, Py_buffer *bi, Py_buffer *bd, Model *m)
     return 0;
 }
 
-/* rhs(ints, doubles, x, e, out): out = [dq, ddq] -> code */
-static PyObject *py_rhs(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
-    (void)self;
+/* out = [dq, ddq] */
+static int rhs(const Model *m, const double *x, const double *e, double *out) {
+    memcpy(out, x + m->n, sizeof(double) * m->n);
+    return accelerations(m, x, e, out + m->n);
+}
+
+typedef int (*state_kernel)(const Model *, const double *, const double *, double *);
+
+/* f(ints, doubles, x, e, out) for a kernel of the state x (2N) and the joint
+   efforts e (NM) writing 2N values, or 2N x 2N when square */
+static PyObject *state_call(PyObject *const *args, Py_ssize_t nargs, state_kernel f, int square) {
     if (nargs != 5) { PyErr_SetString(PyExc_TypeError, "expected (ints, doubles, x, e, out)"); return NULL; }
     Py_buffer bi, bd, bx, be, bo;
     Model m;
@@ -633,11 +743,8 @@ static PyObject *py_rhs(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     int code = -1;
     if (buffer(args[2], &bx, "d", 8, 2 * m.n, 0) == 0) {
         if (buffer(args[3], &be, "d", 8, m.nm, 0) == 0) {
-            if (buffer(args[4], &bo, "d", 8, 2 * m.n, 1) == 0) {
-                const double *x = (const double *)bx.buf;
-                double *o = (double *)bo.buf;
-                memcpy(o, x + m.n, sizeof(double) * m.n);
-                code = accelerations(&m, x, (const double *)be.buf, o + m.n);
+            if (buffer(args[4], &bo, "d", 8, 2 * m.n * (square ? 2 * m.n : 1), 1) == 0) {
+                code = f(&m, (const double *)bx.buf, (const double *)be.buf, (double *)bo.buf);
                 PyBuffer_Release(&bo);
             }
             PyBuffer_Release(&be);
@@ -648,27 +755,14 @@ static PyObject *py_rhs(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     return code < 0 ? NULL : PyLong_FromLong(code);
 }
 
-/* jac(ints, doubles, x, e, J) -> code */
+/* rhs(ints, doubles, x, e, out): out = [dq, ddq] -> code */
+static PyObject *py_rhs(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self; return state_call(args, nargs, rhs, 0);
+}
+
+/* jac(ints, doubles, x, e, J): J (2N x 2N) -> code */
 static PyObject *py_jac(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
-    (void)self;
-    if (nargs != 5) { PyErr_SetString(PyExc_TypeError, "expected (ints, doubles, x, e, J)"); return NULL; }
-    Py_buffer bi, bd, bx, be, bo;
-    Model m;
-    if (tables(args, &bi, &bd, &m) < 0) return NULL;
-    int code = -1;
-    if (buffer(args[2], &bx, "d", 8, 2 * m.n, 0) == 0) {
-        if (buffer(args[3], &be, "d", 8, m.nm, 0) == 0) {
-            if (buffer(args[4], &bo, "d", 8, 4 * m.n * m.n, 1) == 0) {
-                code = jacobian(&m, (const double *)bx.buf, (const double *)be.buf,
-                                (double *)bo.buf);
-                PyBuffer_Release(&bo);
-            }
-            PyBuffer_Release(&be);
-        }
-        PyBuffer_Release(&bx);
-    }
-    PyBuffer_Release(&bi); PyBuffer_Release(&bd);
-    return code < 0 ? NULL : PyLong_FromLong(code);
+    (void)self; return state_call(args, nargs, jacobian, 1);
 }
 
 /* inverse(ints, doubles, count, x, w, out): out[k] = M w[k] - F at x[k] (no actuators) */

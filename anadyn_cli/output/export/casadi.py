@@ -74,7 +74,8 @@ def _sympy(ca, expr, env: dict):
     if isinstance(expr, sp.Not):
         return ca.logic_not(args[0])
     if expr.func in SYMPY_CALLS:
-        return reduce(getattr(ca, SYMPY_CALLS[expr.func]), args)
+        function = getattr(ca, SYMPY_CALLS[expr.func])
+        return function(*args) if len(args) <= 2 else reduce(function, args)
     raise ModelError(f"no CasADi form for {expr.func.__name__} in {expr}")
 
 
@@ -95,7 +96,8 @@ def _build(ca, function: Function) -> object:
             env[s.name] = value(s.payload)
         elif s.kind == "call":
             name, atom = s.payload
-            env[s.name] = 1.0 / env[atom] if name == "recip" else getattr(ca, CALLS[name])(env[atom])
+            env[s.name] = (1.0 / env[atom] if name == "recip"
+                           else getattr(ca, CALLS[name])(env[atom]))
         elif s.kind == "sympy":
             env[s.name] = _sympy(ca, s.payload, env)
     out = ca.vertcat(*[value(x.terms) for x in function.outputs])

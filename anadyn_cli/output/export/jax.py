@@ -55,8 +55,9 @@ def _function(function: Function) -> list[str]:
         if arg == "t":
             lines.append(f"    _t = {arg}")
         else:
-            lines.append(f"    {', '.join(atoms)}{',' if size == 1 else ''} = "
-                         f"({', '.join(f'{arg}[{k}]' for k in range(size))}{',' if size == 1 else ''})")
+            comma = "," if size == 1 else ""
+            items = ", ".join(f"{arg}[{k}]" for k in range(size))
+            lines.append(f"    {', '.join(atoms)}{comma} = ({items}{comma})")
     for s in function.statements:
         if s.kind == "sum":
             lines.append(f"    {s.name} = {python_sum(s.payload)}")

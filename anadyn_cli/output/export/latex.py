@@ -11,7 +11,6 @@ closing with \\right., the next opening with \\left.), so every line stays balan
 """
 from __future__ import annotations
 
-import re
 
 import sympy as sp
 

@@ -27,7 +27,7 @@ import sympy as sp
 from ... import __version__
 from ...errors import ModelError, printable
 from ...model.robot import Robot
-from ...numeric.closed_form import state_partials
+from ...numeric.closed_form import control_laws, state_partials
 from ...model.expressions import as_expr
 
 TIME = sp.Symbol("t", real=True)
@@ -194,20 +194,6 @@ def identifier(name: str, limit: int = MATLAB_NAME_MAX - len(LONGEST_SUFFIX)) ->
     if not cleaned or not cleaned[0].isalpha():
         cleaned = "robot_" + cleaned
     return cleaned[:limit].rstrip("_") or "robot"
-
-
-def control_laws(robot: Robot, symbolic: bool) -> sp.Matrix:
-    """tau_c(t, q, dq), one row per actuator; zeros without a controller.  The
-    parameters (and the gains) stay symbols when ``symbolic``."""
-    m = len(robot.actuators)
-    if robot.controller is None:
-        return sp.zeros(m, 1)
-    values = robot.parameter_substitution(symbolic)
-    if not symbolic:
-        numeric = robot.parameter_substitution()
-        values.update({sp.Symbol(k, real=True): v.xreplace(numeric)
-                       for k, v in robot.controller.gains.items()})
-    return sp.Matrix([robot.controller.laws[a.name].xreplace(values) for a in robot.actuators])
 
 
 def partials(M: sp.Matrix, F: sp.Matrix, B: sp.Matrix, laws: sp.Matrix,

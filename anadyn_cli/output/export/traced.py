@@ -73,13 +73,14 @@ def trace(robot) -> Traced:
     mfb = trace_mfb(pl)
     M = [x for row in mfb.outputs["M"] for x in row]
     M_statements = prune(mfb.statements, M)
-    if any(a == "_t" or a.startswith("_u") for s in M_statements for a in s.atoms()):
+    if any(a == "_t" for s in M_statements for a in s.atoms()):
         raise ModelError("the mass matrix depends on t; the CasADi and JAX exports need "
                          "M(q)", source=robot.source)
     functions = {
         "forward_dynamics": Function(
-            "forward_dynamics", [("t", 1), ("q", n), ("dq", n), ("tau", m)], "ddq", driven.statements,
-            driven.outputs["ddq"], (n,), "ddq solving M(q) ddq = F(t, q, dq) + B tau"),
+            "forward_dynamics", [("t", 1), ("q", n), ("dq", n), ("tau", m)], "ddq",
+            driven.statements, driven.outputs["ddq"], (n,),
+            "ddq solving M(q) ddq = F(t, q, dq) + B tau"),
         "inverse_dynamics": Function(
             "inverse_dynamics", [("t", 1), ("q", n), ("dq", n), ("ddq", n)], "tau",
             inverse.statements, tau, (m,), "tau = pinv(B) (M(q) ddq - F(t, q, dq))"),

@@ -1,11 +1,12 @@
 """A URDF's <visual> elements, placed on anadyn's bodies, with their mesh files found.
 
-The importer (``model.urdf``) folds every link on a fixed joint into the body
-it is fixed to, and the root link and the links fixed to it into the ground.
-``visuals`` walks the same tree in the importer's order, so each visual
-knows its owner (body index in the robot, -1 for the ground) and its pose in
-the owner's frame: owner <- link (the fixed joints' origins composed) <-
-visual (``<visual><origin>``).
+The importer (``model.urdf``) folds every link on a fixed (or locked, or
+welded) joint into the body it is fixed to, and the root link and the links
+fixed to it into the ground.  ``visuals`` takes where each link ends up from
+the importer (``urdf.link_bodies``), so each visual knows its owner (body
+index in the robot, -1 for the ground) and its pose in the owner's frame:
+owner <- link (the fixed joints' origins composed) <- visual
+(``<visual><origin>``).
 
 Mesh paths: ``package://PKG/rest`` is looked up in the package roots (a
 folder named PKG above the URDF, the ``--package-path`` folders, then
@@ -51,43 +52,30 @@ class Visuals:
 
 
 def visuals(urdf: Path, package_paths=()) -> Visuals:
-    """The visuals of the URDF file ``urdf`` on the bodies anadyn imports from it."""
-    from ...model import urdf as importer
+    """The visuals of the URDF file ``urdf`` on the bodies anadyn imports from it (read
+    with the current ``urdf.READING`` options, as the robot was)."""
+    from ...model.urdf import link_bodies
 
-    source = str(urdf)
-    root = importer._parse_xml(importer.read_urdf(urdf), source)
-    parser = importer._Importer(source, False, "accept")
-    links = {}
-    for i, element in enumerate(root.findall("link")):
-        links[element.get("name")] = (parser.link(element, i), element)
-    joints = {}
-    for i, element in enumerate(root.findall("joint")):
-        joint = parser.joint(element, {k: v[0] for k, v in links.items()}, i)
-        joints[joint.name] = joint
-    base = parser.root(links, joints, {j.child: j for j in joints.values()})
-    owner, pose = {base: -1}, {base: np.eye(4)}
-    moving = 0
-    for joint in parser.tree_order(base, joints):
-        if joint.type == "fixed":
-            owner[joint.child] = owner[joint.parent]
-            pose[joint.child] = pose[joint.parent] @ _matrix(joint.origin, joint.rpy)
-        else:
-            owner[joint.child], pose[joint.child] = moving, np.eye(4)
-            moving += 1
+    bodies = link_bodies(urdf)
+    root, parser = bodies.root, bodies.reader
     materials = {m.get("name"): _rgba(m) for m in root.findall("material")}
     finder = _Finder(urdf, package_paths)
     result = Visuals()
-    for name, (_, element) in links.items():
-        if name not in owner:
+    for element in root.findall("link"):
+        name = element.get("name")
+        if name not in bodies.places:
             continue
+        owner, (R, origin) = bodies.places[name]
+        pose = np.eye(4)
+        pose[:3, :3], pose[:3, 3] = R, origin
         for visual in element.findall("visual"):
             where = f"link {name!r}: <visual>"
             xyz, rpy = parser.origin(visual, where)
             item = _geometry(parser, visual, where, finder, result.warnings)
             if item is None:
                 continue
-            item.link, item.owner = name, owner[name]
-            item.matrix = pose[name] @ _matrix(xyz, rpy)
+            item.link, item.owner = name, owner
+            item.matrix = pose @ _matrix(xyz, rpy)
             material = visual.find("material")
             if material is not None:
                 item.color = _rgba(material) or materials.get(material.get("name"))

@@ -1,0 +1,43 @@
+"""Linearization about an operating point: state-space matrices, modes, controllability.
+
+With x = [q, dq], u = tau and M(q) ddq = F(t, q, dq) + B(q) tau:
+
+    dx/dt = f(t, x, u) = [dq, M^-1 (F + B u)]
+    A = df/dx = [[0, I], [M^-1 K]],   B = df/du = [[0], [M^-1 B]]
+    K = d(F + B u - M a)/dx  at the point's accelerations a = ddq0
+
+(differentiating M ddq = F + B u gives M d(ddq) = d(F + B u) - (dM) ddq, so M
+is never inverted symbolically).  A holds the efforts u0 fixed (open loop);
+A_closed_loop is the Jacobian of the file's closed loop u = tau_c(t, x),
+K_cl = K(u = tau_c(x0)) + B d(tau_c)/dx, with zero efforts when the file has
+no controller (the motion ``simulate`` integrates).
+
+The operating point is the file's initial state at t = 0 unless ``at``
+says otherwise; its efforts u0 are the given ones, else the controller's at
+that state, else the static holding efforts u0 = pinv(B) (-F(t, q, 0))
+(exact when B is square and invertible; their residual is reported); ``efforts``
+chooses otherwise (holding efforts about a set point, for a controller design).
+``equilibrium`` first solves F(t, q, 0) + B tau(q) = 0 for q near the given
+one (scipy.optimize.root, analytic Jacobian), with tau the controller's law at
+rest, the given efforts, or zero without either.
+
+Eigenvalues of A and A_closed_loop with natural frequency |lambda| and
+damping ratio -Re(lambda)/|lambda|.  The controllability rank of (A, B) is the
+dimension of the controllable subspace, grown one orthonormal Krylov block at
+a time (the staircase form; better conditioned than the rank of
+[B, AB, ..., A^(2n-1) B]), and each mode gets the Popov-Belevitch-Hautus test.
+
+One module per job: ``point`` (the operating point, the equilibrium search),
+``equations`` (the equations differentiated once), ``state_space`` (``linearize``),
+``modes`` (eigenvalues, controllability), ``parametric`` (the symbolic form),
+``writing`` (files, summary, report).
+"""
+from .point import EFFORTS, EQUILIBRIUM_TOL, OperatingPoint, check_efforts, parse_at
+from .modes import RANK_TOL, controllability_rank, modes
+from .parametric import symbolic_form
+from .state_space import Linearization, linearize
+from .writing import report, summary, write
+
+__all__ = ["EFFORTS", "EQUILIBRIUM_TOL", "OperatingPoint", "check_efforts", "parse_at",
+           "RANK_TOL", "controllability_rank", "modes", "symbolic_form", "Linearization",
+           "linearize", "report", "summary", "write"]

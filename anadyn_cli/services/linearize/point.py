@@ -1,0 +1,191 @@
+"""The operating point: ``at`` parsed (``parse_at``), the efforts' source checked
+(``check_efforts``), the static equilibrium searched (``find_equilibrium``)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from ...errors import NumericalError, SettingError
+from ...model import expressions
+from ...numeric.pointwise import Evaluator
+from .equations import Equations
+
+#: max |ddq| (in the coordinates' units / s^2) for a state to count as an equilibrium
+EQUILIBRIUM_TOL = 1e-9
+EFFORTS = ("auto", "controller", "holding", "zero")
+
+
+@dataclass
+class OperatingPoint:
+    t: float
+    q: np.ndarray
+    dq: np.ndarray
+    tau: np.ndarray
+    ddq: np.ndarray
+    efforts_from: str           # "given", "controller", "holding", "none"
+    equilibrium: bool           # at rest with ddq = 0 (to EQUILIBRIUM_TOL)
+    searched: bool = False      # found by the equilibrium search
+    holding_residual: float | None = None    # |B u0 + F| left by holding efforts
+    exact: dict = field(default_factory=dict)   # symbol -> SymPy value (for symbolic output)
+
+
+def _split(text: str) -> list[str]:
+    """Split at commas outside brackets and parentheses."""
+    parts, depth, current = [], 0, ""
+    for ch in text:
+        if ch in "([":
+            depth += 1
+        elif ch in ")]":
+            depth -= 1
+            if depth < 0:
+                raise SettingError("at", f"{text!r}: unbalanced {ch!r}")
+        if ch == "," and depth == 0:
+            parts.append(current)
+            current = ""
+        else:
+            current += ch
+    if depth:
+        raise SettingError("at", f"{text!r}: unbalanced brackets")
+    return parts + [current]
+
+
+def parse_at(text: str | None, robot) -> dict:
+    """The operating point ``at`` as {"t": expr, "q": {i: expr}, "dq": {i: expr}, "tau": {k: expr}}.
+
+    Items ``name=value`` separated by commas: ``t``, a coordinate ``q1``, a rate
+    ``dq1``, an actuator ``T01z``, or a whole vector ``q=[..]``, ``dq=[..]``,
+    ``tau=[..]``.  Values are expressions of numbers, ``pi``, the file's
+    parameters and gains (``q1=pi/6``, ``q2=q2f``), parsed safely.
+    """
+    result: dict = {"t": None, "q": {}, "dq": {}, "tau": {}}
+    if text is None:
+        return result
+    coordinates = [c.name for c in robot.coordinates]
+    actuators = [a.name for a in robot.actuators]
+    scalars = {name: ("q", i) for i, name in enumerate(coordinates)}
+    scalars.update({"d" + name: ("dq", i) for i, name in enumerate(coordinates)})
+    scalars.update({name: ("tau", k) for k, name in enumerate(actuators)})
+    scalars["t"] = ("t", None)
+    sizes = {"q": len(coordinates), "dq": len(coordinates), "tau": len(actuators)}
+    values = robot.parameter_substitution()
+    names = {s.name: v for s, v in values.items()}
+    if robot.controller is not None:
+        names.update({k: v.xreplace(values) for k, v in robot.controller.gains.items()})
+    allowed = ", ".join(["t", *coordinates, *("d" + c for c in coordinates), *actuators]
+                        + [f"{v}=[...]" for v in ("q", "dq", "tau")
+                           if v not in scalars and sizes[v]])
+    if not text.strip():
+        raise SettingError("at", f"is empty; give name=value items separated by commas ({allowed})")
+
+    def value(item: str, raw: str) -> sp.Expr:
+        try:
+            expr = expressions.parse(raw.strip(), names)
+            number = expressions.approximate(expr)
+        except expressions.ExpressionError as err:
+            raise SettingError("at", f"{item.strip()!r}: {err}") from None
+        if not (math.isfinite(number.real) and number.imag == 0):
+            raise SettingError("at", f"{item.strip()!r}: not a finite real number")
+        return expr
+
+    seen: set[str] = set()
+    for item in _split(text):
+        if "=" not in item:
+            raise SettingError("at", f"{item.strip()!r}: expected name=value ({allowed})")
+        key, raw = (part.strip() for part in item.split("=", 1))
+        if key in seen:
+            raise SettingError("at", f"gives {key} twice")
+        seen.add(key)
+        if key in scalars:
+            kind, index = scalars[key]
+            if kind == "t":
+                result["t"] = value(item, raw)
+            else:
+                result[kind][index] = value(item, raw)
+        elif key in sizes and sizes[key]:
+            if not (raw.startswith("[") and raw.endswith("]")):
+                example = ", ".join(["0"] * sizes[key])
+                raise SettingError("at", f"{item.strip()!r}: {key} takes a list of "
+                                 f"{sizes[key]} values, e.g. {key}=[{example}]")
+            entries = _split(raw[1:-1]) if raw[1:-1].strip() else []
+            if len(entries) != sizes[key]:
+                raise SettingError("at", f"{item.strip()!r}: {key} has {sizes[key]} entries, "
+                                 f"got {len(entries)}")
+            for index, entry in enumerate(entries):
+                result[key][index] = value(item, entry)
+        else:
+            raise SettingError("at", f"{item.strip()!r}: unknown name {key!r}; use {allowed}")
+    if result["tau"] and len(result["tau"]) != len(actuators):
+        missing = [a for k, a in enumerate(actuators) if k not in result["tau"]]
+        raise SettingError("at", f"gives some efforts but not {', '.join(missing)}; give all "
+                         "efforts or none")
+    return result
+
+
+def check_efforts(robot, efforts: str, given: dict | None = None) -> None:
+    """``efforts`` against the robot and ``at`` (SettingError, exit 2)."""
+    if efforts not in EFFORTS:
+        raise SettingError("efforts", f"{efforts!r} is unknown; choose one of "
+                                      f"{', '.join(EFFORTS)}")
+    if efforts == "controller" and robot.controller is None:
+        raise SettingError("efforts", f"controller: {robot.name} has no controller; use holding "
+                         "or zero")
+    if efforts != "auto" and given is not None and given["tau"]:
+        raise SettingError("efforts", f"{efforts} and efforts in 'at': give one or the other")
+    if efforts in ("controller", "holding") and not robot.actuators:
+        raise SettingError("efforts", f"{efforts}: {robot.name} has no actuators")
+
+
+def find_equilibrium(eq: Equations, t0: float, q0: np.ndarray, fixed_tau, state) -> np.ndarray:
+    """q near q0 with F(t0, q, 0) + B(q) tau = 0, tau the law at rest or ``fixed_tau``."""
+    from scipy.optimize import root
+
+    n = eq.n
+    zeros = np.zeros(n)
+
+    def residual(q):
+        tau = (fixed_tau if fixed_tau is not None
+               else Evaluator(eq.values(t0, q, zeros)).vector(eq.laws))
+        ev = Evaluator(eq.values(t0, q, zeros, tau, zeros))
+        r = ev.vector(eq.R)
+        J = ev.matrix(eq.Rx)[:, :n]
+        if fixed_tau is None:
+            J = J + ev.matrix(eq.B) @ ev.matrix(eq.Lx)[:, :n]
+        return r, J, ev.matrix(eq.M)
+
+    def accelerations(q) -> float:
+        r, _, M = residual(q)
+        return float(np.max(np.abs(np.linalg.solve(M, r))))
+
+    try:
+        if accelerations(q0) <= EQUILIBRIUM_TOL:
+            return q0
+        solution = root(lambda q: residual(q)[:2], q0, jac=True, method="hybr",
+                        options={"xtol": 1e-14})
+        q = np.asarray(solution.x, dtype=float)
+        left = accelerations(q)
+    except (ValueError, np.linalg.LinAlgError) as err:
+        raise NumericalError(f"equilibrium search from {point_text(state[:n], q0, [])} "
+                             f"failed: {err}") from None
+    if not left <= EQUILIBRIUM_TOL:
+        raise NumericalError(
+            f"no static equilibrium found near {point_text(state[:n], q0, [])}: the search "
+            f"stopped at {point_text(state[:n], q, [])} with max |ddq| = {left:.3g} "
+            f"({' '.join(solution.message.split()).rstrip('.')}); try another starting state "
+            "in 'at'")
+    return q
+
+
+def snapped(value: float) -> sp.Expr:
+    """An equilibrium coordinate for the symbolic form: k pi/12 exactly when the search
+    landed within 1e-12 of one (a pendulum hangs at -pi/2), else the float."""
+    k = round(value / (math.pi / 12))
+    if abs(k) <= 48 and abs(value - k * math.pi / 12) <= 1e-12 * max(1.0, abs(value)):
+        return sp.pi * k / 12
+    return sp.Float(value)
+
+
+def point_text(names: list[str], q, dq) -> str:
+    return "(" + ", ".join(f"{n} = {v:.6g}" for n, v in zip(names, [*q, *dq])) + ")"

@@ -1,0 +1,165 @@
+"""``linearize``: A, B and A_closed_loop at the operating point (the package
+docstring), with the modes and the controllability rank."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from ...errors import SettingError
+from ...numeric.pointwise import Evaluator
+from .equations import TIME, Equations, evaluate, solve_spd
+from .modes import controllability_rank, modes
+from .parametric import as_strings, symbolic_form
+from .point import (EQUILIBRIUM_TOL, OperatingPoint, check_efforts, find_equilibrium, parse_at,
+                    point_text, snapped)
+
+
+@dataclass
+class Linearization:
+    robot: str
+    source: str
+    formulation: str
+    state: list[str]
+    inputs: list[str]
+    units: list[str]            # of the states
+    point: OperatingPoint
+    A: np.ndarray
+    B: np.ndarray
+    A_closed_loop: np.ndarray
+    has_controller: bool
+    eigenvalues: list[dict]
+    eigenvalues_closed_loop: list[dict]
+    controllability_rank: int
+    symbolic: dict | None = None              # the matrices below as text (linearize.json)
+    symbolic_matrices: dict = field(default_factory=dict)   # name -> SymPy Matrix
+    timings: dict = field(default_factory=dict)
+
+
+def linearize(robot, formulation: str = "kane", at: str | None = None,
+              equilibrium: bool = False, symbolic: bool = False,
+              timings: dict | None = None, eom=None, efforts: str = "auto") -> Linearization:
+    """Linearize ``robot`` (a validated Robot) about the operating point (see module doc).
+
+    ``efforts``: where the point's efforts come from unless ``at`` gives them: "auto"
+    (the controller, else holding, else zero), "controller", "holding" (static holding
+    efforts, e.g. to design a controller about a set point), "zero"."""
+    from ...symbolic.formulations import derive
+
+    from ...model.constraints import refuse_closed_chain
+
+    timings = {} if timings is None else timings
+    refuse_closed_chain(robot, "linearize")
+    given = parse_at(at, robot)
+    n, m = len(robot.coordinates), len(robot.actuators)
+    check_efforts(robot, efforts, given)
+    if equilibrium and efforts == "holding":
+        raise SettingError("equilibrium", "with efforts 'holding': holding efforts make a "
+                                          "state at rest an equilibrium by construction; give "
+                                          "the state in 'at'")
+    start = time.perf_counter()
+    if eom is None:
+        eom = derive(robot, formulation)
+    timings["derive"] = time.perf_counter() - start
+    start = time.perf_counter()
+    eq = Equations(robot, eom)
+    timings["differentiate"] = time.perf_counter() - start
+    start = time.perf_counter()
+
+    numeric = robot.parameter_substitution()
+    exact: dict[sp.Symbol, sp.Expr] = {}
+    for i, c in enumerate(robot.coordinates):
+        exact[eq.q[i]] = given["q"].get(i, c.initial.xreplace(numeric))
+        exact[eq.dq[i]] = given["dq"].get(i, c.rate.xreplace(numeric))
+    exact[TIME] = given["t"] if given["t"] is not None else sp.Integer(0)
+    t0 = float(exact[TIME])
+    q0 = np.array([float(exact[s]) for s in eq.q])
+    dq0 = np.array([float(exact[s]) for s in eq.dq])
+    names = [c.name for c in robot.coordinates]
+    state = names + ["d" + c for c in names]
+
+    if given["tau"]:
+        source = "given"
+        fixed_tau = np.array([float(given["tau"][k]) for k in range(m)])
+        for k in range(m):
+            exact[eq.tau[k]] = given["tau"][k]
+    elif m and eq.laws is not None and efforts in ("auto", "controller"):
+        source, fixed_tau = "controller", None
+    elif m and (efforts == "holding" or (efforts == "auto" and not equilibrium)):
+        source, fixed_tau = "holding", None
+    else:
+        source, fixed_tau = "none", np.zeros(m)
+
+    searched = False
+    if equilibrium:
+        if any(float(v) != 0 for v in given["dq"].values()):
+            raise SettingError("equilibrium", "looks for a state at rest; leave the rates "
+                                              "out of 'at' (or give them as 0)")
+        dq0 = np.zeros(n)
+        for s in eq.dq:
+            exact[s] = sp.Integer(0)
+        q0 = find_equilibrium(eq, t0, q0, fixed_tau, state)
+        for s, v in zip(eq.q, q0):
+            exact[s] = snapped(v)
+        searched = True
+
+    # efforts at the point
+    ev = Evaluator(eq.values(t0, q0, dq0))
+    M0 = evaluate(ev, "mass matrix", lambda: ev.matrix(eq.M))
+    F0 = evaluate(ev, "forcing", lambda: ev.vector(eq.F))
+    B0 = evaluate(ev, "input matrix", lambda: ev.matrix(eq.B)) if m else np.zeros((n, 0))
+    where = f"t = {t0:g} s, " + point_text(state, q0, dq0)
+    law0 = (evaluate(ev, "control laws", lambda: ev.vector(eq.laws))
+            if eq.laws is not None else np.zeros(m))
+    holding_residual = None
+    if source == "controller":
+        tau0 = law0
+    elif source == "holding":
+        at_rest = Evaluator(eq.values(t0, q0, np.zeros(n)))
+        F_rest = evaluate(at_rest, "forcing", lambda: at_rest.vector(eq.F))
+        tau0 = np.linalg.pinv(B0) @ -F_rest
+        holding_residual = float(np.max(np.abs(B0 @ tau0 + F_rest)))
+    else:
+        tau0 = fixed_tau
+    ddq0 = solve_spd(M0, F0 + B0 @ tau0, where)
+    is_equilibrium = bool(np.all(dq0 == 0) and np.max(np.abs(ddq0)) <= EQUILIBRIUM_TOL)
+
+    # open loop: efforts held at tau0
+    ev_open = Evaluator(eq.values(t0, q0, dq0, tau0, ddq0))
+    K = evaluate(ev_open, "derivatives", lambda: ev_open.matrix(eq.Rx))
+    A = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = np.eye(n)
+    A[n:, :] = np.linalg.solve(M0, K)
+    Bss = np.zeros((2 * n, m))
+    if m:
+        Bss[n:, :] = np.linalg.solve(M0, B0)
+    # closed loop: u = tau_c(t, x), zero without a controller
+    ddq_c = solve_spd(M0, F0 + B0 @ law0, where)
+    ev_closed = Evaluator(eq.values(t0, q0, dq0, law0, ddq_c))
+    K_c = evaluate(ev_closed, "derivatives", lambda: ev_closed.matrix(eq.Rx))
+    if eq.Lx is not None:
+        K_c = K_c + B0 @ evaluate(ev_closed, "control laws' derivatives",
+                                   lambda: ev_closed.matrix(eq.Lx))
+    A_cl = np.zeros((2 * n, 2 * n))
+    A_cl[:n, n:] = np.eye(n)
+    A_cl[n:, :] = np.linalg.solve(M0, K_c)
+    timings["evaluate"] = time.perf_counter() - start
+
+    point = OperatingPoint(t0, q0, dq0, tau0, ddq0, source, is_equilibrium, searched,
+                           holding_residual, exact)
+    units = ([c.unit for c in robot.coordinates] + [c.unit + "/s" for c in robot.coordinates])
+    result = Linearization(
+        robot=robot.name, source=robot.source, formulation=eom.formulation, state=state,
+        inputs=[a.name for a in robot.actuators], units=units, point=point, A=A, B=Bss,
+        A_closed_loop=A_cl, has_controller=eq.laws is not None,
+        eigenvalues=modes(A, Bss), eigenvalues_closed_loop=modes(A_cl),
+        controllability_rank=controllability_rank(A, Bss), timings=timings)
+    if symbolic:
+        start = time.perf_counter()
+        result.symbolic_matrices = symbolic_form(robot, formulation, point)
+        result.symbolic = {k: (as_strings(v) if isinstance(v, sp.MatrixBase) else v)
+                           for k, v in result.symbolic_matrices.items()}
+        timings["symbolic"] = time.perf_counter() - start
+    return result
