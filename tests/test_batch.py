@@ -42,6 +42,7 @@ def test_ci_config_covers_every_shipped_robot_with_every_command():
 
 def test_ci_config_passes(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(ROOT)
+    monkeypatch.setenv("ANADYN_PROGRESS", "plain")     # as in a CI log
     out = tmp_path / "ci"
     assert main(["batch", "configs/ci.yaml", "--jobs", "2", "--out", str(out)]) == 0
     captured = capsys.readouterr()
@@ -65,7 +66,9 @@ def test_ci_config_passes(tmp_path, monkeypatch, capsys):
         assert (out / command / "rr" / f"{command}.json").is_file()
 
 
-def test_an_impossible_expectation_fails_the_batch_and_names_the_job(tmp_path, capsys):
+def test_an_impossible_expectation_fails_the_batch_and_names_the_job(tmp_path, capsys,
+                                                                     monkeypatch):
+    monkeypatch.setenv("ANADYN_PROGRESS", "plain")
     path = config(tmp_path, """\
 jobs:
   - command: simulate
@@ -85,12 +88,13 @@ jobs:
 """)
     out = tmp_path / "out"
     assert main(["batch", str(path), "--out", str(out)]) == 1
-    captured = capsys.readouterr()
-    assert captured.err == ("anadyn: error: batch: 2 of 3 jobs missed their expectations: "
-                            "simulate too-few-rows (rows = 101 > max 100); "
-                            "simulate no-such-figure (roundtrip.max_error: missing in "
-                            "simulate.json)\n")
-    lines = {m.group(5): m for m in map(JOB_LINE.match, captured.out.splitlines()[:3])}
+    err = capsys.readouterr().err.splitlines()
+    assert err[-1] == ("anadyn: error: batch: 2 of 3 jobs missed their expectations: "
+                       "simulate too-few-rows (rows = 101 > max 100); "
+                       "simulate no-such-figure (roundtrip.max_error: missing in "
+                       "simulate.json)")
+    lines = {m.group(5): m for m in map(JOB_LINE.match, [e for e in err if e[:1] == "["])}
+    assert len(lines) == 3
     assert lines["rr"].group(3) == "ok  " and lines["rr"].group(6) is None
     assert lines["too-few-rows"].group(3) == "FAIL"
     assert lines["too-few-rows"].group(6) == ": rows = 101 > max 100"
@@ -415,3 +419,28 @@ def test_reports_keep_the_whole_output_cut_in_the_middle():
     case = report.find("testcase")
     assert case.find("system-out").text == kept
     assert case.find("failure").text.endswith("stderr:\n" + kept)
+
+
+def test_commands_run_through_the_executor_in_order_with_timeouts_and_start_failures(tmp_path):
+    """executors.run_commands: results in the commands' order whatever order they end in;
+    one over its timeout is killed (code None, timed out); one that cannot start is
+    data, not an exception."""
+    import sys
+
+    from anadyn_cli.studies import executors
+
+    python = sys.executable
+    commands = [executors.Command((python, "-c", "import time; time.sleep(0.5); print('a')")),
+                executors.Command((python, "-c", "import sys; print('b'); sys.exit(3)")),
+                executors.Command((python, "-c", "import time; time.sleep(60)"), timeout=0.5),
+                executors.Command((str(tmp_path / "no-such-program"),))]
+    started, ended = [], []
+    ran = executors.run_commands(commands, 2, on_start=started.append,
+                                 on_done=lambda i, f: ended.append(i))
+    assert sorted(started) == sorted(ended) == [0, 1, 2, 3]
+    a, b, slow, missing = ran.results
+    assert (a.code, a.stdout, a.timed_out, a.started) == (0, "a\n", False, True)
+    assert (b.code, b.stdout) == (3, "b\n")
+    assert (slow.code, slow.timed_out) == (None, True)
+    assert (missing.code, missing.started) == (None, False) and "no-such-program" in missing.stderr
+    assert (ran.executor, ran.workers) == ("local processes", 2)

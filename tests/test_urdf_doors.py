@@ -21,8 +21,8 @@ import yaml
 from anadyn_cli.cli import main
 from anadyn_cli.errors import ModelError
 from anadyn_cli.model import robot_from_text
-from anadyn_cli.model.urdf import (READING, ReadingOptions, import_file, import_urdf,
-                                   link_bodies)
+from anadyn_cli.model.urdf import (ReadingOptions, import_file, import_urdf, link_bodies,
+                                   reading)
 from anadyn_cli.model.yamlsource import read_text
 
 pin = pytest.importorskip("pinocchio")
@@ -126,12 +126,9 @@ def test_the_lock_is_in_the_header_and_the_text_so_in_the_cache_key():
     assert "(`anadyn import --lock elbow_joint=pi/2`)" in locked
     assert "#   elbow_joint: revolute at 1.5707963267948966 rad" in locked
     assert "elbow_joint: {initial" not in locked and "elbow_joint: {initial" in plain
-    token = READING.set(ReadingOptions(lock=(("elbow_joint", "pi/2"),)))   # as a command does
-    try:
+    with reading(ReadingOptions(lock=(("elbow_joint", "pi/2"),))):      # as a command does
         assert read_text(DATA / "ur5_robot.urdf")[0] == locked
-    finally:
-        READING.reset(token)
-    assert read_text(DATA / "ur5_robot.urdf")[0] == plain
+    assert read_text(DATA / "ur5_robot.urdf")[0] == plain          # the block ended
     digest = lambda text: hashlib.sha256(text.encode()).hexdigest()         # noqa: E731
     assert digest(locked) != digest(plain)
 

@@ -62,7 +62,8 @@ FLAGS = {"output_step": "--dt", "t_end": "--t-end", "rtol": "--rtol", "atol": "-
          "jobs": "--jobs", "settle_band": "--settle-band",
          "smoothing_window": "--smoothing-window", "smoothing_order": "--smoothing-order",
          "symbolic": "--symbolic", "goal": "--to", "start": "--from", "objective": "--minimize",
-         "duration": "--duration", "intervals": "--intervals"}
+         "duration": "--duration", "intervals": "--intervals",
+         "method": "--method", "vary": "--vary"}
 
 
 def flag_message(setting: str, reason: str) -> str:
@@ -200,7 +201,7 @@ def reading_options(fix_base: bool, inertia: InertiaPolicy, lock: list[str] | No
 def with_urdf_options(command):
     """``command`` with --fix-base, --inertia and --lock (URDF_OPTIONS) when it takes a
     robot (a ``robot`` or ``robots`` argument) and has no such options of its own: the
-    URDF files it reads are read with them (``urdf.READING``), which changes the
+    URDF files it reads are read with them (``urdf.reading``), which changes the
     imported text and so the derivation cache's key.  Given for robots none of which
     is a URDF file, they are refused in one line."""
     import functools
@@ -221,11 +222,8 @@ def with_urdf_options(command):
             from ..errors import ModelError
             raise ModelError(f"{options.flags()}: these options say how a URDF file is read; "
                              f"{', '.join(map(str, robots))} is not a URDF file")
-        token = urdf.READING.set(options)
-        try:
+        with urdf.reading(options):
             return command(*args, **kwargs)
-        finally:
-            urdf.READING.reset(token)
 
     added = [inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=option,
                                annotation=kind) for name, (kind, option) in URDF_OPTIONS.items()]

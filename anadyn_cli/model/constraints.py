@@ -57,7 +57,7 @@ from typing import Mapping
 import numpy as np
 import sympy as sp
 
-from ..errors import ModelError
+from ..errors import ModelError, shorten
 from .names import GROUND
 from .yamlschema import describe_value as _kind
 from .robot import Body, Coordinate
@@ -202,7 +202,7 @@ def _loop(builder, item, body_names: list[str], k: int) -> Loop:
             close = difflib.get_close_matches(body, [GROUND, *body_names], n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise point_fields["body"].error(
-                f"unknown body {_short(body)!r}{hint}; a loop joins points of two of: "
+                f"unknown body {shorten(body, 40)!r}{hint}; a loop joins points of two of: "
                 f"{', '.join([*body_names, GROUND])}")
         point = builder.constant_vector(point_fields.get("point"))
         ends.append(LoopPoint(body, tuple(point)))
@@ -636,11 +636,6 @@ def _consistent_rates(system: _System, cursors: dict, coordinates, dependent: li
                     "solved, or make the rates consistent")
         rates[k] = value
     return rates, [names[k] for k in speeds]
-
-
-def _short(value: object, limit: int = 40) -> str:
-    text = str(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def refuse_closed_chain(robot, command: str) -> None:

@@ -25,6 +25,8 @@ from collections.abc import Mapping
 
 import sympy as sp
 
+from ..errors import shorten
+
 
 #: name -> (sympy function, allowed argument counts; None = two or more)
 FUNCTIONS: dict[str, tuple[object, tuple[int, ...] | None]] = {
@@ -99,7 +101,7 @@ def parse(value: object, names: Mapping[str, sp.Expr],
         raise ExpressionError("empty expression")
     if len(text) > MAX_LENGTH:
         raise ExpressionError(f"expression longer than {MAX_LENGTH} characters")
-    shown = _shorten(text)
+    shown = shorten(text)
     try:
         tree = ast.parse(text, mode="eval")
     except SyntaxError as err:
@@ -122,14 +124,14 @@ def parse(value: object, names: Mapping[str, sp.Expr],
     except (RecursionError, MemoryError):
         raise ExpressionError(TOO_DEEP) from None
     except (TypeError, ValueError, ArithmeticError) as err:   # SymPy refusing, e.g. max(I, 1)
-        raise ExpressionError(f"cannot evaluate {shown!r} ({_shorten(str(err))})") from None
+        raise ExpressionError(f"cannot evaluate {shown!r} ({shorten(str(err))})") from None
     if infinite:
         raise ExpressionError(f"{shown!r} is not finite (division by zero or overflow)")
     if smooth:
         kinks = [f for f in result.atoms(*KINKS) if f.free_symbols]
         if kinks:
             raise ExpressionError(
-                f"{shown!r} is {_shorten(str(result))}: {_shorten(str(kinks[0]))} has a kink "
+                f"{shown!r} is {shorten(str(result))}: {shorten(str(kinks[0]))} has a kink "
                 "or a jump, not allowed here (this expression is differentiated twice)")
     return result
 
@@ -160,13 +162,9 @@ def _check_numbers(tree: ast.AST, text: str) -> None:
                 and not isinstance(node.value, bool):
             written = ast.get_source_segment(text, node) or ""
             if not DECIMAL.match(written):
-                raise ExpressionError(f"{_shorten(written, 30)!r} is not a decimal number; "
+                raise ExpressionError(f"{shorten(written, 30)!r} is not a decimal number; "
                                       "write digits, a point and an exponent, such as "
                                       "1000, 0.5 or 1e-3 (no underscores, 0x, 0o or 0b)")
-
-
-def _shorten(text: str, limit: int = 60) -> str:
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def approximate(expr: sp.Expr, values: Mapping[sp.Symbol, object] | None = None) -> complex:
@@ -225,7 +223,7 @@ def approximate(expr: sp.Expr, values: Mapping[sp.Symbol, object] | None = None)
         if expr.is_Number:
             raise ExpressionError("number too large (the largest allowed is about "
                                   "1.8e308)") from None
-        raise ExpressionError(f"{_shorten(str(expr))} overflows in floating point (the "
+        raise ExpressionError(f"{shorten(str(expr))} overflows in floating point (the "
                               "largest number allowed is about 1.8e308)") from None
     except RecursionError:
         raise ExpressionError(TOO_DEEP) from None
@@ -303,7 +301,7 @@ class _Builder:
         allowed = sorted(self.names) + sorted(CONSTANTS)
         shown = ", ".join(allowed[:20]) + (", ..." if len(allowed) > 20 else "")
         if name.startswith("_"):
-            raise ExpressionError(f"name {_shorten(name, 30)!r} is not allowed (no name starts "
+            raise ExpressionError(f"name {shorten(name, 30)!r} is not allowed (no name starts "
                                   f"with _); allowed here: {shown}")
         if name in self.unavailable:
             raise ExpressionError(f"{name!r} is {self.unavailable[name]} and cannot be used "
@@ -339,7 +337,7 @@ class _Builder:
             raise ExpressionError(f"{_construct(node.func)} is not allowed; use numbers, names, "
                                   "+ - * / ** and the functions " + ", ".join(sorted(FUNCTIONS)))
         if node.func.id not in FUNCTIONS:
-            raise ExpressionError(f"call of {_shorten(node.func.id, 30)} is not allowed; allowed "
+            raise ExpressionError(f"call of {shorten(node.func.id, 30)} is not allowed; allowed "
                                   "functions: " + ", ".join(sorted(FUNCTIONS)))
         if node.keywords or any(isinstance(arg, ast.Starred) for arg in node.args):
             raise ExpressionError(f"{node.func.id}() takes positional arguments only")
@@ -387,7 +385,7 @@ def _construct(node: ast.AST) -> str:
              ast.GeneratorExp: "a comprehension", ast.Await: "await", ast.Yield: "yield",
              ast.YieldFrom: "yield"}
     if isinstance(node, ast.Attribute):
-        return f"attribute access (.{_shorten(node.attr, 30)})"
+        return f"attribute access (.{shorten(node.attr, 30)})"
     for kind, label in names.items():
         if isinstance(node, kind):
             return label
@@ -408,7 +406,7 @@ def _describe(value: object) -> str:
     if value is None:
         return "nothing (null)"
     if isinstance(value, str):
-        return f"the string {_shorten(value, 40)!r}"
+        return f"the string {shorten(value, 40)!r}"
     if value is Ellipsis:
         return "..."
     labels = {complex: "a complex number", bytes: "bytes", list: "a list", dict: "a mapping",

@@ -28,7 +28,7 @@ from typing import Mapping
 import numpy as np
 import sympy as sp
 
-from ..errors import ModelError
+from ..errors import ModelError, shorten
 from . import expressions
 from . import massmatrix
 from .names import GROUND, IDENTIFIER, RESERVED_NAMES, default_name
@@ -154,7 +154,7 @@ class Cursor:
 
     def choice(self, options: tuple[str, ...]) -> str:
         if not isinstance(self.value, str) or self.value not in options:
-            shown = repr(_short(self.value)) if isinstance(self.value, str) else _kind(self.value)
+            shown = repr(shorten(self.value)) if isinstance(self.value, str) else _kind(self.value)
             raise self.error(f"must be one of {', '.join(options)}, got {shown}")
         return self.value
 
@@ -311,9 +311,9 @@ class _RobotBuilder:
         except (RecursionError, MemoryError):
             raise cursor.error(expressions.TOO_DEEP) from None
         except (TypeError, ValueError, ArithmeticError):
-            raise cursor.error(f"cannot evaluate {_short(value)} to a number") from None
+            raise cursor.error(f"cannot evaluate {shorten(value)} to a number") from None
         if number.imag != 0 or not math.isfinite(number.real):
-            raise cursor.error(f"must be a finite real number, got {_short(value)}")
+            raise cursor.error(f"must be a finite real number, got {shorten(value)}")
         if number.real != 0 and not SMALLEST <= abs(number.real) <= LARGEST:
             raise cursor.error(f"{number.real:g} is out of range: numbers in a robot file are 0 "
                                f"or between {SMALLEST:g} and {LARGEST:g} in size (SI units)")
@@ -611,7 +611,7 @@ class _RobotBuilder:
                 close = difflib.get_close_matches(body.parent, options, n=1)
                 hint = f" (did you mean {close[0]!r}?)" if close else ""
                 raise cursors[name].child("parent", None).error(
-                    f"unknown parent {_short(body.parent)!r}{hint}; use 'ground' or a body name")
+                    f"unknown parent {shorten(body.parent)!r}{hint}; use 'ground' or a body name")
         depth: dict[str, int] = {GROUND: 0}
         for name in bodies:
             chain = []
@@ -712,7 +712,7 @@ class _RobotBuilder:
             if not isinstance(body_name, str):
                 raise fields["joint"].error(f"expected a body name, got {_kind(body_name)}")
             if body_name not in by_name:
-                shown = repr(_short(body_name))
+                shown = repr(shorten(body_name))
                 close = (difflib.get_close_matches(body_name, list(by_name), n=1)
                          if isinstance(body_name, str) else [])
                 hint = f" (did you mean {close[0]!r}?)" if close else ""
@@ -782,7 +782,7 @@ class _RobotBuilder:
             if body not in by_name:
                 close = difflib.get_close_matches(body, list(by_name), n=1)
                 hint = f" (did you mean {close[0]!r}?)" if close else ""
-                raise fields["body"].error(f"unknown body {_short(body)!r}{hint}; loads act on "
+                raise fields["body"].error(f"unknown body {shorten(body)!r}{hint}; loads act on "
                                            f"one of: {', '.join(by_name)}")
             if "force" not in fields and "torque" not in fields:
                 raise item.error("a load needs a force, a torque or both, e.g. "
@@ -869,7 +869,7 @@ class _RobotBuilder:
         if name not in self.q:
             close = difflib.get_close_matches(name, list(self.q), n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise cursor.error(f"unknown coordinate {_short(name)!r}{hint}; coordinates: "
+            raise cursor.error(f"unknown coordinate {shorten(name)!r}{hint}; coordinates: "
                                f"{', '.join(self.q)}")
 
     def simulation(self, cursor: Cursor) -> Simulation:
@@ -918,15 +918,6 @@ def _defined(expr: sp.Expr, symbols: list, values: list) -> bool:
     except (TypeError, ValueError, ArithmeticError, RecursionError):
         return False
     return number.imag == 0 and math.isfinite(number.real)
-
-
-def _short(value: object, limit: int = 60) -> str:
-    """str(value), cut to ``limit`` characters for a one-line message."""
-    try:
-        text = str(value)
-    except ValueError:             # e.g. an integer too long to print
-        text = "a huge number"
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _moving(word: object) -> bool:

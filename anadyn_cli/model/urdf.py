@@ -24,14 +24,22 @@ convention, so joints carry over number for number:
 - a link on a fixed joint is folded into the body it is fixed to: its mass,
   centre of mass and inertia are added exactly (``combine``), its name and
   pose are kept as a comment above that body in the YAML text;
+- a locked joint (``lock``: joint -> value, Pinocchio's ``buildReducedModel``)
+  folds its child in the same way, at the pose its joint type's ``transform``
+  gives at that value; the mimics of a locked joint are locked with it;
+- a link without mass between joints (URDF's ball joints: three revolute
+  joints with virtual links) is a body of mass 0; a joint that moves no mass
+  at all (none on its link or beyond) is refused, naming every such joint;
 - <limit> -> joint ``limits: {lower, upper, velocity, effort}``;
   <dynamics damping friction> -> joint ``damping``, ``friction``;
 - the child link's <inertial>: com = origin xyz, inertia = R I R^T with R
   the rotation of origin rpy (central inertia in body axes);
 - gravity: 9.81 m/s^2 along -z of the root link, the URDF convention.
 
-Floating and planar joints cannot be represented (``fix_base`` welds one
-that carries the root to the world).  Inertias that no rigid body has
+Floating and planar joints cannot be represented (``fix_base`` welds the one
+that carries the root link to the world).  ``ReadingOptions`` gathers
+``fix_base``, ``inertia`` and ``lock``; ``READING`` holds those a command reads
+URDF files with, and ``link_bodies`` says where each link ends up.  Inertias that no rigid body has
 (principal moments breaking I1 + I2 >= I3) are refused unless ``inertia`` is
 "repair" (the nearest valid tensor, ``nearest_valid_moments``) or "accept";
 both are stated in ``Imported.warnings``, never silent.
@@ -42,6 +50,7 @@ import functools
 import math
 import re
 import stat
+from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass, field
 from itertools import combinations
@@ -287,8 +296,18 @@ class ReadingOptions:
 
 
 #: the options that ``yamlsource.read_text`` and ``link_bodies`` read a URDF with; a
-#: command sets them for its run (``commands.common.with_urdf_options``)
+#: command sets them for its run (``reading``, from ``commands.common``)
 READING: ContextVar[ReadingOptions] = ContextVar("urdf_reading", default=ReadingOptions())
+
+
+@contextmanager
+def reading(options: ReadingOptions):
+    """Read URDF files with ``options`` inside the block (``READING``)."""
+    token = READING.set(options)
+    try:
+        yield options
+    finally:
+        READING.reset(token)
 
 
 def parse_lock(option: str) -> tuple[str, str]:

@@ -20,7 +20,7 @@ import re
 
 import yaml
 
-from ..errors import ModelError
+from ..errors import ModelError, shorten
 
 MAX_BYTES = 256 * 1024
 #: tags a plain YAML value resolves to; any other (explicit) tag is refused
@@ -170,7 +170,7 @@ class _Walker:
         try:
             return self.loader.construct_object(node)
         except (ValueError, OverflowError) as err:     # e.g. an int of 5000 digits, 2001-13-45
-            shown = node.value if len(node.value) <= 40 else node.value[:37] + "..."
+            shown = shorten(node.value, 40)
             reason = "too many digits" if "digits" in str(err) else str(err)
             raise ModelError(f"cannot read the value {shown!r} ({reason})", source=self.source,
                              path=path or None, line=node.start_mark.line + 1) from None

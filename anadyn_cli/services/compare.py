@@ -41,7 +41,7 @@ import numpy as np
 
 from .. import files as output
 from .. import progress
-from ..errors import CheckFailed, NumericalError, check
+from ..errors import CheckFailed, NumericalError, check, shorten
 from ..numeric import constrained, integrators
 from ..numeric.model import NumericModel
 from ..numeric.settings import output_grid, resolve
@@ -202,7 +202,7 @@ def symbolic_check(kane, lagrange, budget: int = SYMBOLIC_TERMS,
             result.not_reduced += 1
         else:
             result.status, result.entry = "nonzero", label
-            result.residual = _short(residual)
+            result.residual = shorten(residual, 120)
             result.seconds = time.perf_counter() - start
             return result
     if result.too_large or result.not_reduced:
@@ -223,11 +223,6 @@ def _vanishes(residual, reference, rng, sp, points: int = 3) -> bool:
         if not value <= 1e-20 * size:
             return False
     return True
-
-
-def _short(expr, limit: int = 120) -> str:
-    text = str(expr)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 # ----------------------------------------------------------------------------

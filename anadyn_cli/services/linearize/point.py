@@ -10,8 +10,9 @@ import sympy as sp
 
 from ...errors import NumericalError, SettingError
 from ...model import expressions
+from ...model.text import split_items
 from ...numeric.pointwise import Evaluator
-from .equations import Equations
+from .equations import TIME, Equations
 
 #: max |ddq| (in the coordinates' units / s^2) for a state to count as an equilibrium
 EQUILIBRIUM_TOL = 1e-9
@@ -30,26 +31,6 @@ class OperatingPoint:
     searched: bool = False      # found by the equilibrium search
     holding_residual: float | None = None    # |B u0 + F| left by holding efforts
     exact: dict = field(default_factory=dict)   # symbol -> SymPy value (for symbolic output)
-
-
-def _split(text: str) -> list[str]:
-    """Split at commas outside brackets and parentheses."""
-    parts, depth, current = [], 0, ""
-    for ch in text:
-        if ch in "([":
-            depth += 1
-        elif ch in ")]":
-            depth -= 1
-            if depth < 0:
-                raise SettingError("at", f"{text!r}: unbalanced {ch!r}")
-        if ch == "," and depth == 0:
-            parts.append(current)
-            current = ""
-        else:
-            current += ch
-    if depth:
-        raise SettingError("at", f"{text!r}: unbalanced brackets")
-    return parts + [current]
 
 
 def parse_at(text: str | None, robot) -> dict:
@@ -91,7 +72,7 @@ def parse_at(text: str | None, robot) -> dict:
         return expr
 
     seen: set[str] = set()
-    for item in _split(text):
+    for item in split_items(text, "at"):
         if "=" not in item:
             raise SettingError("at", f"{item.strip()!r}: expected name=value ({allowed})")
         key, raw = (part.strip() for part in item.split("=", 1))
@@ -109,7 +90,7 @@ def parse_at(text: str | None, robot) -> dict:
                 example = ", ".join(["0"] * sizes[key])
                 raise SettingError("at", f"{item.strip()!r}: {key} takes a list of "
                                  f"{sizes[key]} values, e.g. {key}=[{example}]")
-            entries = _split(raw[1:-1]) if raw[1:-1].strip() else []
+            entries = split_items(raw[1:-1], "at") if raw[1:-1].strip() else []
             if len(entries) != sizes[key]:
                 raise SettingError("at", f"{item.strip()!r}: {key} has {sizes[key]} entries, "
                                  f"got {len(entries)}")
@@ -189,3 +170,46 @@ def snapped(value: float) -> sp.Expr:
 
 def point_text(names: list[str], q, dq) -> str:
     return "(" + ", ".join(f"{n} = {v:.6g}" for n, v in zip(names, [*q, *dq])) + ")"
+
+
+def start_point(robot, eq: Equations, given: dict, efforts: str, equilibrium: bool,
+                state: list[str]):
+    """The point before its efforts are evaluated: (exact values by symbol, t0, q0, dq0,
+    where the efforts come from, the fixed efforts (None: evaluated at the point),
+    whether the equilibrium search ran); ``given``: ``parse_at``'s result."""
+    n, m = eq.n, eq.m
+    numeric = robot.parameter_substitution()
+    exact: dict[sp.Symbol, sp.Expr] = {}
+    for i, c in enumerate(robot.coordinates):
+        exact[eq.q[i]] = given["q"].get(i, c.initial.xreplace(numeric))
+        exact[eq.dq[i]] = given["dq"].get(i, c.rate.xreplace(numeric))
+    exact[TIME] = given["t"] if given["t"] is not None else sp.Integer(0)
+    t0 = float(exact[TIME])
+    q0 = np.array([float(exact[s]) for s in eq.q])
+    dq0 = np.array([float(exact[s]) for s in eq.dq])
+
+    if given["tau"]:
+        source = "given"
+        fixed_tau = np.array([float(given["tau"][k]) for k in range(m)])
+        for k in range(m):
+            exact[eq.tau[k]] = given["tau"][k]
+    elif m and eq.laws is not None and efforts in ("auto", "controller"):
+        source, fixed_tau = "controller", None
+    elif m and (efforts == "holding" or (efforts == "auto" and not equilibrium)):
+        source, fixed_tau = "holding", None
+    else:
+        source, fixed_tau = "none", np.zeros(m)
+
+    searched = False
+    if equilibrium:
+        if any(float(v) != 0 for v in given["dq"].values()):
+            raise SettingError("equilibrium", "looks for a state at rest; leave the rates "
+                                              "out of 'at' (or give them as 0)")
+        dq0 = np.zeros(n)
+        for s in eq.dq:
+            exact[s] = sp.Integer(0)
+        q0 = find_equilibrium(eq, t0, q0, fixed_tau, state)
+        for s, v in zip(eq.q, q0):
+            exact[s] = snapped(v)
+        searched = True
+    return exact, t0, q0, dq0, source, fixed_tau, searched

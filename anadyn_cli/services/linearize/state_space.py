@@ -10,11 +10,11 @@ import sympy as sp
 
 from ...errors import SettingError
 from ...numeric.pointwise import Evaluator
-from .equations import TIME, Equations, evaluate, solve_spd
+from .equations import Equations, evaluate, solve_spd
 from .modes import controllability_rank, modes
 from .parametric import as_strings, symbolic_form
-from .point import (EQUILIBRIUM_TOL, OperatingPoint, check_efforts, find_equilibrium, parse_at,
-                    point_text, snapped)
+from .point import (EQUILIBRIUM_TOL, OperatingPoint, check_efforts, parse_at, point_text,
+                    start_point)
 
 
 @dataclass
@@ -68,42 +68,10 @@ def linearize(robot, formulation: str = "kane", at: str | None = None,
     timings["differentiate"] = time.perf_counter() - start
     start = time.perf_counter()
 
-    numeric = robot.parameter_substitution()
-    exact: dict[sp.Symbol, sp.Expr] = {}
-    for i, c in enumerate(robot.coordinates):
-        exact[eq.q[i]] = given["q"].get(i, c.initial.xreplace(numeric))
-        exact[eq.dq[i]] = given["dq"].get(i, c.rate.xreplace(numeric))
-    exact[TIME] = given["t"] if given["t"] is not None else sp.Integer(0)
-    t0 = float(exact[TIME])
-    q0 = np.array([float(exact[s]) for s in eq.q])
-    dq0 = np.array([float(exact[s]) for s in eq.dq])
     names = [c.name for c in robot.coordinates]
     state = names + ["d" + c for c in names]
-
-    if given["tau"]:
-        source = "given"
-        fixed_tau = np.array([float(given["tau"][k]) for k in range(m)])
-        for k in range(m):
-            exact[eq.tau[k]] = given["tau"][k]
-    elif m and eq.laws is not None and efforts in ("auto", "controller"):
-        source, fixed_tau = "controller", None
-    elif m and (efforts == "holding" or (efforts == "auto" and not equilibrium)):
-        source, fixed_tau = "holding", None
-    else:
-        source, fixed_tau = "none", np.zeros(m)
-
-    searched = False
-    if equilibrium:
-        if any(float(v) != 0 for v in given["dq"].values()):
-            raise SettingError("equilibrium", "looks for a state at rest; leave the rates "
-                                              "out of 'at' (or give them as 0)")
-        dq0 = np.zeros(n)
-        for s in eq.dq:
-            exact[s] = sp.Integer(0)
-        q0 = find_equilibrium(eq, t0, q0, fixed_tau, state)
-        for s, v in zip(eq.q, q0):
-            exact[s] = snapped(v)
-        searched = True
+    exact, t0, q0, dq0, source, fixed_tau, searched = start_point(
+        robot, eq, given, efforts, equilibrium, state)
 
     # efforts at the point
     ev = Evaluator(eq.values(t0, q0, dq0))
@@ -126,6 +94,34 @@ def linearize(robot, formulation: str = "kane", at: str | None = None,
     ddq0 = solve_spd(M0, F0 + B0 @ tau0, where)
     is_equilibrium = bool(np.all(dq0 == 0) and np.max(np.abs(ddq0)) <= EQUILIBRIUM_TOL)
 
+    A, Bss, A_cl = state_matrices(eq, (t0, q0, dq0), tau0, ddq0, law0, (M0, F0, B0), where)
+    timings["evaluate"] = time.perf_counter() - start
+
+    point = OperatingPoint(t0, q0, dq0, tau0, ddq0, source, is_equilibrium, searched,
+                           holding_residual, exact)
+    units = ([c.unit for c in robot.coordinates] + [c.unit + "/s" for c in robot.coordinates])
+    result = Linearization(
+        robot=robot.name, source=robot.source, formulation=eom.formulation, state=state,
+        inputs=[a.name for a in robot.actuators], units=units, point=point, A=A, B=Bss,
+        A_closed_loop=A_cl, has_controller=eq.laws is not None,
+        eigenvalues=modes(A, Bss), eigenvalues_closed_loop=modes(A_cl),
+        controllability_rank=controllability_rank(A, Bss), timings=timings)
+    if symbolic:
+        start = time.perf_counter()
+        result.symbolic_matrices = symbolic_form(robot, formulation, point)
+        result.symbolic = {k: (as_strings(v) if isinstance(v, sp.MatrixBase) else v)
+                           for k, v in result.symbolic_matrices.items()}
+        timings["symbolic"] = time.perf_counter() - start
+    return result
+
+
+def state_matrices(eq: Equations, x0, tau0, ddq0, law0, terms, where: str):
+    """(A, B, A_closed_loop) at x0 = (t0, q0, dq0) with the point's efforts ``tau0``
+    and accelerations ``ddq0``, the laws' efforts ``law0`` and terms = (M, F, B) there
+    (the package docstring)."""
+    t0, q0, dq0 = x0
+    M0, F0, B0 = terms
+    n, m = eq.n, eq.m
     # open loop: efforts held at tau0
     ev_open = Evaluator(eq.values(t0, q0, dq0, tau0, ddq0))
     K = evaluate(ev_open, "derivatives", lambda: ev_open.matrix(eq.Rx))
@@ -145,21 +141,4 @@ def linearize(robot, formulation: str = "kane", at: str | None = None,
     A_cl = np.zeros((2 * n, 2 * n))
     A_cl[:n, n:] = np.eye(n)
     A_cl[n:, :] = np.linalg.solve(M0, K_c)
-    timings["evaluate"] = time.perf_counter() - start
-
-    point = OperatingPoint(t0, q0, dq0, tau0, ddq0, source, is_equilibrium, searched,
-                           holding_residual, exact)
-    units = ([c.unit for c in robot.coordinates] + [c.unit + "/s" for c in robot.coordinates])
-    result = Linearization(
-        robot=robot.name, source=robot.source, formulation=eom.formulation, state=state,
-        inputs=[a.name for a in robot.actuators], units=units, point=point, A=A, B=Bss,
-        A_closed_loop=A_cl, has_controller=eq.laws is not None,
-        eigenvalues=modes(A, Bss), eigenvalues_closed_loop=modes(A_cl),
-        controllability_rank=controllability_rank(A, Bss), timings=timings)
-    if symbolic:
-        start = time.perf_counter()
-        result.symbolic_matrices = symbolic_form(robot, formulation, point)
-        result.symbolic = {k: (as_strings(v) if isinstance(v, sp.MatrixBase) else v)
-                           for k, v in result.symbolic_matrices.items()}
-        timings["symbolic"] = time.perf_counter() - start
-    return result
+    return A, Bss, A_cl

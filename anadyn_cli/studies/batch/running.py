@@ -4,7 +4,6 @@ progress shown through ``anadyn_cli.progress``."""
 from __future__ import annotations
 
 import threading
-import time
 from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
