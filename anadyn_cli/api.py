@@ -512,13 +512,15 @@ def animate(robot, out: str | Path | None = None, motion: str = "simulate",
 
 
 def import_urdf(urdf, out: str | Path | None = None, fix_base: bool = False,
-                inertia: str = "refuse"):
+                inertia: str = "refuse", lock: Mapping[str, float | str] | None = None):
     """A URDF robot as an anadyn robot file (``anadyn import``).
 
     :param urdf: a URDF file's path, or the name of a library robot.
     :param out: the robot file to write (YAML with comments); None: write nothing.
     :param fix_base: weld a floating or planar root joint to the world.
     :param inertia: physically impossible inertias: "refuse", "repair" or "accept".
+    :param lock: joints held at a value, {joint: number or text such as "pi/4"}: a
+        reduced robot, as Pinocchio's ``buildReducedModel`` makes it.
     :returns: an ``Imported``: ``text`` (the robot file), ``data``, ``warnings``; the
         text is validated as a robot before it is returned.
     """
@@ -530,7 +532,7 @@ def import_urdf(urdf, out: str | Path | None = None, fix_base: bool = False,
     path = library.resolve(urdf)
     if path.suffix.lower() != ".urdf":
         raise ModelError("not a URDF file (expected a .urdf file name)", source=str(path))
-    imported = import_file(path, fix_base=fix_base, inertia=inertia)
+    imported = import_file(path, fix_base=fix_base, inertia=inertia, lock=lock or ())
     robot_from_text(imported.text, f"{path} (imported)")         # what is written loads
     if out is not None:
         write_text(Path(out), imported.text)

@@ -30,6 +30,14 @@ def _quiet_progress(monkeypatch):
     monkeypatch.setenv("ANADYN_PROGRESS", "off")
 
 
+@pytest.fixture(autouse=True)
+def _no_terminal_size(monkeypatch):
+    """Tables are printed whole (standard output is not a terminal) unless a test sets
+    COLUMNS itself: pytest-xdist's workers inherit a COLUMNS from the main process."""
+    monkeypatch.delenv("COLUMNS", raising=False)
+    monkeypatch.delenv("LINES", raising=False)
+
+
 @pytest.fixture
 def repo() -> Path:
     """The repository root (robots/, configs/, README.md)."""

@@ -128,6 +128,15 @@ def test_inverse_of_a_measured_motion_equals_the_files_own(tmp_path):
         planned.efforts).max()
 
 
+def test_import_urdf_locks_joints():
+    """A locked joint is no coordinate of the imported robot; the others stay."""
+    whole = anadyn.import_urdf("ur5")
+    locked = anadyn.import_urdf("ur5", lock={"wrist_3_joint": "pi/4"})
+    assert "wrist_3_joint" in whole.data["coordinates"]
+    assert "wrist_3_joint" not in locked.data["coordinates"]
+    assert len(locked.data["coordinates"]) == len(whole.data["coordinates"]) - 1
+
+
 def test_view_is_a_page_and_writes_only_when_asked(tmp_path):
     page = anadyn.view(RR)
     assert "<html" in page.html().lower() and page.name == "rr"

@@ -454,8 +454,10 @@ def test_unknown_method_lists_the_choices(tmp_path, capsys):
     (["--t-end", "nan"], "--t-end must be a positive number, got nan"),
     (["--dt", "-0.01"], "--dt must be a positive number, got -0.01"),
     (["--dt", "0"], "--dt must be a positive number, got 0"),
-    (["--rtol", "0"], "--rtol must be a positive number, got 0"),
-    (["--atol", "inf"], "--atol must be a positive number, got inf"),
+    (["--rtol", "0"], "--rtol must be a number greater than 0 and less than 1, got 0"),
+    (["--atol", "inf"], "--atol must be a number of at least 1e-100 and less than 1 (below it "
+                        "the integrators' error norms, which square error / atol, overflow), "
+                        "got inf"),
     (["--dt", "2", "--t-end", "1"], "output step 2 s is longer than t_end 1 s"),
 ])
 def test_bad_horizon_or_step_is_a_usage_error(tmp_path, capsys, options, message):

@@ -37,7 +37,7 @@ def affine_map(pl) -> tuple[np.ndarray, np.ndarray] | None:
     for displacement, grad, _ in pl.joint_expressions():
         if any(g.free_symbols for g in grad):
             return None
-        offset = sp.sympify(displacement).xreplace(zero)
+        offset = displacement.xreplace(zero)   # a SymPy expression (plan)
         if offset.free_symbols:               # e.g. t in a displacement
             return None
         rows.append([float(g) for g in grad])
