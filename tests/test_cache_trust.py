@@ -468,7 +468,7 @@ def test_each_compiler_builds_the_same_bits(cc, tmp_path, monkeypatch):
     gen = recursive.generate(robot)
     code, c_text = recursive.module_source(gen), native.c_source(gen)
     info = RobotInfo.from_robot(robot)
-    fast = native.numeric_model(info, code, c_text, how="wait")
+    fast = native.recursive_model(info, code, c_text, how="wait")
     assert isinstance(fast, native.NativeModel), fast.native_note
     slow = native.RecursiveModel(info, code)
     rng = np.random.default_rng(3)

@@ -476,7 +476,7 @@ def test_native_kernels_match_generated_python(repo, tmp_path, monkeypatch, text
     gen = recursive.generate(robot)
     code, c_text = recursive.module_source(gen), native.c_source(gen)
     info = RobotInfo.from_robot(robot)
-    fast = native.numeric_model(info, code, c_text, how="wait")
+    fast = native.recursive_model(info, code, c_text, how="wait")
     assert isinstance(fast, native.NativeModel), fast.native_note
     slow = native.RecursiveModel(info, code, "recursive")
     closed = NumericModel(info, code, "recursive")       # numpy.linalg.solve(M, K)
@@ -506,7 +506,7 @@ def test_native_kernels_match_generated_python(repo, tmp_path, monkeypatch, text
     D_one, _ = fast.demand(0.3, q[:, 0], dq[:, 0], ddq[:, 0])    # one point, scalars
     assert D_one.shape == (n,) and rel(D_one, slow.demand(0.3, q[:, 0], dq[:, 0],
                                                           ddq[:, 0])[0]) < 1e-14
-    again = native.numeric_model(info, code, c_text)          # cached library
+    again = native.recursive_model(info, code, c_text)          # cached library
     assert again.native_note == "native C (cached)"
     if text_of == "cubic":
         x = np.zeros(4)
@@ -522,13 +522,13 @@ def test_without_a_compiler_the_generated_python_runs(tmp_path, monkeypatch, rep
     monkeypatch.setattr(native, "compiler", lambda: None)
     robot = load_robot(repo / "robots/rr.yaml")
     gen = recursive.generate(robot)
-    model = native.numeric_model(RobotInfo.from_robot(robot), recursive.module_source(gen),
+    model = native.recursive_model(RobotInfo.from_robot(robot), recursive.module_source(gen),
                                  native.c_source(gen), how="wait")
     assert not isinstance(model, native.NativeModel)
     assert model.native_note == "generated Python (no C compiler found (set CC))"
     assert np.isfinite(model.rhs(0.0, np.array([0.1, 0.2, 0.0, 0.0]))).all()
     monkeypatch.setenv("ANADYN_NATIVE", "0")
-    model = native.numeric_model(RobotInfo.from_robot(robot), recursive.module_source(gen),
+    model = native.recursive_model(RobotInfo.from_robot(robot), recursive.module_source(gen),
                                  native.c_source(gen))
     assert model.native_note == "generated Python (native code off (ANADYN_NATIVE=0))"
 
@@ -694,7 +694,7 @@ def test_non_smooth_control_laws(repo, tmp_path, monkeypatch):
         assert rel(slow.jacobian(0, x), J_fd) < 1e-5
     if native.unavailable() is None:
         monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "anadyn"))
-        fast = native.numeric_model(info, code, c_text, how="wait")
+        fast = native.recursive_model(info, code, c_text, how="wait")
         assert isinstance(fast, native.NativeModel), fast.native_note
         assert np.array_equal(fast.jacobian(0, x), slow.jacobian(0, x))
 

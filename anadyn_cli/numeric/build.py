@@ -182,7 +182,7 @@ def _generated_model(robot, pl, timings: dict, quick: bool, how: str | None, sto
     timings["derive"] = time.perf_counter() - start       # the recursive equations
     info = RobotInfo.from_robot(robot)
     start = time.perf_counter()
-    model = native.numeric_model(info, code, c_text, None, timings, how=how, quick=quick)
+    model = native.recursive_model(info, code, c_text, None, timings, how=how, quick=quick)
     timings["compile"] = time.perf_counter() - start
     if store:
         cache.store(robot.digest, "recursive", {"code": code, "c": c_text,
@@ -217,7 +217,7 @@ def _cached(digest: str, key: str, source: str) -> NumericModel | None:
     try:
         if "c" in entry:                            # the recursive path
             from . import native
-            return native.numeric_model(RobotInfo.from_dict(entry["robot"], source),
+            return native.recursive_model(RobotInfo.from_dict(entry["robot"], source),
                                         entry["code"], entry["c"], None)
         return constrained.model_type(entry["code"])(
             RobotInfo.from_dict(entry["robot"], source), entry["code"],

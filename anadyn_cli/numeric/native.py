@@ -979,9 +979,9 @@ class NativeModel(RecursiveModel):
             return out.reshape(shape + (n,)), self.actuation(t, q, dq)
 
 
-def numeric_model(info, code: str, c_text: str | None, formulation: str = "recursive",
-                  timings: dict | None = None, how: str | None = None,
-                  quick: QuickBuild | None = None):
+def recursive_model(info, code: str, c_text: str | None, formulation: str = "recursive",
+                    timings: dict | None = None, how: str | None = None,
+                    quick: QuickBuild | None = None):
     """A NativeModel when the C library is cached (or ``how`` "wait" builds it),
     else the generated Python's RecursiveModel, which takes ``quick``'s C for its
     RHS once built; ``model.native_note`` says which."""

@@ -9,8 +9,11 @@ Matplotlib backend is not touched.
 from __future__ import annotations
 
 import html
+from pathlib import Path
 
 import numpy as np
+
+from ..files import write_csv
 
 HEAD = TAIL = 3
 
@@ -39,7 +42,13 @@ def table_html(caption: str, header: list[str], columns: list, head: int = HEAD,
 
 
 class Displayed:
-    """Mixin: ``_repr_html_`` from ``table()``, ``_repr_png_`` from ``figure()``."""
+    """Mixin: ``to_csv`` and ``_repr_html_`` from ``table()``, ``_repr_png_`` from
+    ``figure()``."""
+
+    def to_csv(self, path) -> Path:
+        """Write the command's CSV columns (``table()``) to ``path``, whole or not at all."""
+        write_csv(Path(path), *self.table())
+        return Path(path)
 
     def _repr_html_(self) -> str:
         header, columns = self.table()

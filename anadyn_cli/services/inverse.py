@@ -147,12 +147,8 @@ class InverseResult(Displayed):
         return self.dynamics.model.evaluator
 
     def table(self) -> tuple[list[str], list[np.ndarray]]:
-        return columns(self)          # the CSV's columns (also shown in notebooks)
-
-    def to_csv(self, path) -> Path:
-        """Write inverse.csv's columns to ``path`` (whole or not at all)."""
-        output.write_csv(Path(path), *columns(self))
-        return Path(path)
+        """inverse.csv's header and columns (``to_csv`` writes them; notebooks show them)."""
+        return columns(self)
 
     def figure(self, rates: bool = False):
         """Prescribed motion and efforts as a Matplotlib Figure (the global

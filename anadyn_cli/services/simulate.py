@@ -49,12 +49,8 @@ class SimulationResult(Displayed):
         return self.solution.x
 
     def table(self) -> tuple[list[str], list[np.ndarray]]:
-        return columns(self)          # the CSV's columns (also shown in notebooks)
-
-    def to_csv(self, path) -> Path:
-        """Write simulate.csv's columns to ``path`` (whole or not at all)."""
-        output.write_csv(Path(path), *columns(self))
-        return Path(path)
+        """simulate.csv's header and columns (``to_csv`` writes them; notebooks show them)."""
+        return columns(self)
 
     def figure(self, rates: bool = False):
         """The run as a Matplotlib Figure (the global backend is not touched)."""
