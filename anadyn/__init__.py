@@ -4,13 +4,13 @@ Every command is a function here (``anadyn_cli.api``); ``import_urdf`` is
 ``anadyn import`` (``import`` is a Python keyword).
 """
 from anadyn_cli import AnadynError, CheckFailed, ModelError, NumericalError, __version__
-from anadyn_cli.api import (accuracy, animate, batch, check, compare, derive, equations, export,
-                            import_urdf, inverse, linearize, load, numeric_model, optimize,
+from anadyn_cli.api import (accuracy, animate, batch, check, compare, derivatives, derive,
+                            equations, export, import_urdf, inverse, linearize, load, numeric_model, optimize,
                             robots, show, simulate, sweep, view)
 from anadyn_cli.errors import SettingError
 
-__all__ = ["load", "derive", "numeric_model", "equations", "simulate", "inverse", "check",
-           "compare", "accuracy", "export", "linearize", "optimize", "sweep", "batch", "show",
+__all__ = ["load", "derive", "numeric_model", "derivatives", "equations", "simulate", "inverse",
+           "check", "compare", "accuracy", "export", "linearize", "optimize", "sweep", "batch", "show",
            "animate", "view", "import_urdf", "robots",
            "AnadynError", "ModelError", "SettingError", "CheckFailed", "NumericalError",
            "__version__"]

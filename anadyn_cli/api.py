@@ -129,6 +129,23 @@ def numeric_model(robot, formulation: str | None = None, evaluator: str | None =
                  evaluator=evaluator)
 
 
+def derivatives(robot, native: bool = True):
+    """The open-loop derivatives of the forward and inverse dynamics (recursive
+    path, open trees): ``forward_derivatives(t, q, dq, tau)``,
+    ``inverse_derivatives(t, q, dq, ddq)``, ``mass_matrix_inverse(q)``, at one state
+    or at N states (rows); shapes in ``anadyn_cli.numeric.derivatives``.
+
+    :param robot: see ``load``.
+    :param native: run C (compiled now on first use, then cached; the generated
+        Python, vectorized by NumPy, without a compiler); False: the Python.
+    :returns: a ``Derivatives`` (``native`` is the C extension or None, ``note``
+        says why).
+    """
+    from .numeric.derivatives import derivatives as build
+
+    return build(load(robot), native)
+
+
 def simulate(robot, formulation: str | None = None, evaluator: str | None = None,
              cache: bool = False, method: str | None = None, rtol: float | None = None,
              atol: float | None = None, t_end: float | None = None,

@@ -1,14 +1,23 @@
-"""anadyn simulate's job done with Pinocchio, the baseline of ``bench/scale.py``.
+"""anadyn simulate's and inverse's jobs done with Pinocchio, the baseline of
+``bench/scale.py`` and ``bench/cold.py``.
 
     python bench/pinocchio_job.py ROBOT.urdf JOB.json OUT.csv
+    python bench/pinocchio_job.py --inverse ROBOT.urdf JOB.json MOTION.csv OUT.csv
 
-Loads the URDF, sets gravity, integrates x = [q, v] under the PD laws
-tau = -b v - k (q - target) with scipy's odeint (LSODA) calling ABA, with
-the analytic Jacobian from Pinocchio's ABA derivatives
-(d(ddq)/dx = [ddq_dq - Minv K, ddq_dv - Minv B]), at the same tolerances as
-anadyn, and writes t, q, v, tau at full precision.  JOB.json holds the
-joint names (anadyn's coordinate order), initial q, targets, gains,
-gravity, t_end, dt, rtol, atol.  Prints the RHS and Jacobian calls.
+simulate: loads the URDF, sets gravity, integrates x = [q, v] under the PD
+laws and joint friction tau = -b v - k (q - target) - f tanh(v / v0) with
+scipy's odeint (LSODA) calling ABA, with the analytic Jacobian from
+Pinocchio's ABA derivatives (d(ddq)/dx = [ddq_dq - Minv K, ddq_dv - Minv
+(B + f / v0 sech^2(v / v0))]), at the same tolerances as anadyn, and writes
+t, q, v, tau at full precision.  JOB.json holds the joint names (anadyn's
+coordinate order), initial q, targets, gains, friction (optional), gravity,
+t_end, dt, rtol, atol.  Prints the RHS and Jacobian calls.
+
+--inverse: reads MOTION.csv (``t``, then q, ``d``q and ``dd``q by joint name,
+as ``anadyn inverse --motion`` reads it; a joint without columns stays at 0),
+computes tau = RNEA(q, v, a) + b v + k (q - target) + f tanh(v / v0) at every
+sample (the efforts that make the damped joints follow the motion) and writes
+t and tau at full precision.
 """
 import json
 import sys
@@ -18,7 +27,9 @@ import pinocchio as pin
 from scipy.integrate import odeint
 
 
-def main(urdf: str, job_path: str, out: str) -> None:
+def setup(urdf: str, job_path: str):
+    """(job, model, data, order, place, b, k, target, f, v0), the job's arrays in
+    Pinocchio's order."""
     with open(job_path) as f:
         job = json.load(f)
     model = pin.buildModelFromUrdf(urdf)
@@ -28,13 +39,39 @@ def main(urdf: str, job_path: str, out: str) -> None:
     order = np.array([model.joints[model.getJointId(j)].idx_v for j in job["joints"]])
     place = np.empty(n, dtype=int)
     place[order] = np.arange(n)              # pinocchio index -> job index
-    b = np.array(job["damping"])[place]
-    k = np.array(job["stiffness"])[place]
-    target = np.array(job["target"])[place]
+    f = np.array(job.get("friction", [0.0] * n))[place]
+    v0 = np.array(job.get("friction_velocity", [1.0] * n))[place]
+    return (job, model, data, order, place, np.array(job["damping"])[place],
+            np.array(job["stiffness"])[place], np.array(job["target"])[place], f, v0)
+
+
+def inverse(urdf: str, job_path: str, motion: str, out: str) -> None:
+    job, model, data, order, place, b, k, target, f, v0 = setup(urdf, job_path)
+    n = model.nv
+    with open(motion) as handle:
+        header = handle.readline().strip().split(",")
+    table = np.loadtxt(motion, delimiter=",", skiprows=1, ndmin=2)
+    column = {name: i for i, name in enumerate(header)}
+    names = np.array(job["joints"])[place]               # Pinocchio's order
+    q, v, a = (np.column_stack([table[:, column[prefix + j]] if prefix + j in column
+                                else np.zeros(len(table)) for j in names])
+               for prefix in ("", "d", "dd"))
+    tau = np.empty_like(q)
+    for i in range(len(table)):
+        tau[i] = pin.rnea(model, data, q[i], v[i], a[i])
+    tau += b * v + k * (q - target) + f * np.tanh(v / v0)
+    np.savetxt(out, np.column_stack((table[:, column["t"]], tau)), delimiter=",", fmt="%.17g",
+               header=",".join(["t", *(f"tau_{j}" for j in names)]), comments="")
+    print(f"rnea calls {len(table)} ({n} joints)")
+
+
+def main(urdf: str, job_path: str, out: str) -> None:
+    job, model, data, order, place, b, k, target, fr, v0 = setup(urdf, job_path)
+    n = model.nv
     calls = [0, 0]
 
     def tau_of(q, v):
-        return -b * v - k * (q - target)
+        return -b * v - k * (q - target) - fr * np.tanh(v / v0)
 
     def f(x, t):
         calls[0] += 1
@@ -48,7 +85,7 @@ def main(urdf: str, job_path: str, out: str) -> None:
         J = np.zeros((2 * n, 2 * n))
         J[:n, n:] = np.eye(n)
         J[n:, :n] = dq - Minv * k
-        J[n:, n:] = dv - Minv * b
+        J[n:, n:] = dv - Minv * (b + fr / v0 / np.cosh(v / v0) ** 2)
         return J
 
     steps = int(round(job["t_end"] / job["dt"]))
@@ -65,4 +102,7 @@ def main(urdf: str, job_path: str, out: str) -> None:
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:4])
+    if sys.argv[1] == "--inverse":
+        inverse(*sys.argv[2:6])
+    else:
+        main(*sys.argv[1:4])

@@ -354,7 +354,7 @@ def test_deeply_nested_records_are_misses(tmp_path, monkeypatch, sealed):
     for name in ("_anadyn_m.lib", "_anadyn_m.failed",
                  f"scipy-odepack-{scipy.__version__}-{sys.implementation.cache_tag}.json"):
         (natives / name).write_bytes(content)
-    monkeypatch.setattr(native, "module_name", lambda c_text: "_anadyn_m")
+    monkeypatch.setattr(native.builder, "module_name", lambda c_text: "_anadyn_m")
     odepack.extension.cache_clear()
     with pytest.warns(UserWarning) as said:
         assert cache.load(digest, "kane") is None
@@ -550,7 +550,7 @@ def test_fuzzed_native_records_are_misses(genuine, tmp_path_factory, data):
         warnings.simplefilter("ignore")             # the warning lines: tested above
         patch.setenv("ANADYN_CACHE_DIR", str(base / "cache"))
         name = record.name[:-len(".lib")]
-        patch.setattr(native, "module_name", lambda c_text: name)
+        patch.setattr(native.builder, "module_name", lambda c_text: name)
         found = native.library_path("")
         why = native.failed_before(folder, name)
     assert found in (None, library_file)

@@ -519,7 +519,7 @@ def test_native_kernels_match_generated_python(repo, tmp_path, monkeypatch, text
 def test_without_a_compiler_the_generated_python_runs(tmp_path, monkeypatch, repo):
     from anadyn_cli.model.info import RobotInfo
     monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(native, "compiler", lambda: None)
+    monkeypatch.setattr(native.builder, "compiler", lambda: None)
     robot = load_robot(repo / "robots/rr.yaml")
     gen = recursive.generate(robot)
     model = native.recursive_model(RobotInfo.from_robot(robot), recursive.module_source(gen),

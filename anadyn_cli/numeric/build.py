@@ -27,7 +27,7 @@ import hashlib
 import time
 from pathlib import Path
 
-from . import cache, constrained
+from . import background, cache, constrained
 from ..errors import SettingError
 from ..model.info import RobotInfo
 from .model import NumericModel
@@ -102,9 +102,8 @@ def numeric_model(robot, formulation: str | None = None, use_cache: bool = False
         return _from_path(robot, formulation, evaluator, use_cache, timings)
     key = _cache_key(formulation)
     if use_cache:
-        hit = _cached(robot.digest, key, robot.source)
+        hit = _cached(robot.digest, key, robot.source, timings)
         if hit is not None:
-            timings["cache"] = "hit"
             return _checked(hit, evaluator)
         timings["cache"] = "miss"
     if formulation is None:
@@ -144,24 +143,35 @@ def _recursive_model(robot, use_cache: bool, timings: dict) -> NumericModel:
     in the background for the next run; see ``native.mode``).  A cold run
     (``use_cache``, a miss) is served by the generic kernel when it can be
     (``generic.first_run``: the robot's own code is generated, stored and
-    compiled in a forked process); otherwise the forward dynamics are traced
-    first and compiled alone (``QuickBuild``) while the rest is generated: the
-    run switches to that C when it is built."""
+    compiled in a forked process, ``_own_code``; an earlier build's cost and
+    failure are reported first, ``background.report``); otherwise the forward
+    dynamics are traced first and compiled alone (``QuickBuild``) while the rest
+    is generated: the run switches to that C when it is built."""
     from . import generic, recursive
 
     start = time.perf_counter()
     pl = recursive.plan(robot)
     if use_cache:
+        entry = cache.key(robot.digest, "recursive")
+        background.report(entry, robot.name, timings)
         model = generic.first_run(
             robot, pl, RobotInfo.from_robot(robot),
             full=lambda: _generated_model(robot, pl, {}, quick=False, how="off", store=False),
-            background=lambda: _generated_model(robot, pl, {}, quick=False, how="wait",
-                                                store=True))
-        if model is not None:
-            timings["derive"] = time.perf_counter() - start     # the plan and tables
+            own_code=lambda: _own_code(robot, pl), entry=entry, timings=timings)
+        if model is not None:                       # the plan and tables
+            timings["derive"] = time.perf_counter() - start - timings.get("native_compile", 0.0)
             return model
     return _generated_model(robot, pl, timings, quick=use_cache,
                             how=None if use_cache else "off", store=use_cache, start=start)
+
+
+def _own_code(robot, pl) -> str | None:
+    """The robot's own code, generated, its C compiled now and stored in the cache
+    (the forked build of a cold run); None, or why its C was not built."""
+    from . import native
+
+    model = _generated_model(robot, pl, {}, quick=False, how="wait", store=True)
+    return None if isinstance(model, native.NativeModel) else model.native_note
 
 
 def _generated_model(robot, pl, timings: dict, quick: bool, how: str | None, store: bool,
@@ -197,9 +207,8 @@ def _from_path(path: str | Path, formulation: str | None, evaluator: str | None,
     text, source = read_text(path)
     if use_cache:
         digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
-        hit = _cached(digest, _cache_key(formulation), source)
+        hit = _cached(digest, _cache_key(formulation), source, timings)
         if hit is not None:
-            timings["cache"] = "hit"
             return _checked(hit, evaluator)
     from ..model import robot_from_text
 
@@ -209,18 +218,24 @@ def _from_path(path: str | Path, formulation: str | None, evaluator: str | None,
     return numeric_model(robot, formulation, use_cache, timings, evaluator=evaluator)
 
 
-def _cached(digest: str, key: str, source: str) -> NumericModel | None:
-    """The cache entry's model; None on a miss or a damaged entry."""
+def _cached(digest: str, key: str, source: str, timings: dict) -> NumericModel | None:
+    """The cache entry's model (``timings``: the hit, and the cost of the background
+    build that stored it, once: ``background.report``); None on a miss or a damaged
+    entry."""
     entry = cache.load(digest, key)
     if entry is None:
         return None
     try:
         if "c" in entry:                            # the recursive path
             from . import native
-            return native.recursive_model(RobotInfo.from_dict(entry["robot"], source),
-                                        entry["code"], entry["c"], None)
-        return constrained.model_type(entry["code"])(
-            RobotInfo.from_dict(entry["robot"], source), entry["code"],
-            "kane" if key == "recursive" else key)
+            model = native.recursive_model(RobotInfo.from_dict(entry["robot"], source),
+                                           entry["code"], entry["c"], None)
+        else:
+            model = constrained.model_type(entry["code"])(
+                RobotInfo.from_dict(entry["robot"], source), entry["code"],
+                "kane" if key == "recursive" else key)
     except Exception:           # noqa: BLE001  anything wrong with a stored entry is a miss
         return None
+    timings["cache"] = "hit"
+    background.report(cache.key(digest, key), model.name, timings)
+    return model

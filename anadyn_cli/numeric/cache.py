@@ -70,12 +70,16 @@ def native_directory() -> Path:
     return base.with_name(base.name + "-native")
 
 
+#: the files whose text makes the generated code: the modules and the C templates
+SOURCES = ("*.py", "*.c.in", "*.c")
+
+
 @functools.lru_cache(maxsize=1)
 def code_fingerprint() -> str:
-    """Hash of anadyn's own .py files (names and contents)."""
+    """Hash of anadyn's own sources (SOURCES: names and contents)."""
     package = Path(__file__).parent
     digest = hashlib.sha256()
-    for path in sorted(package.rglob("*.py")):
+    for path in sorted({p for pattern in SOURCES for p in package.rglob(pattern)}):
         digest.update(str(path.relative_to(package)).encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()

@@ -11,7 +11,9 @@ the robot.
 
 ``first_run`` serves a cold run (cache miss) with a ``GenericModel`` while the
 robot-specific code is generated, stored in the derivation cache and compiled
-in a forked process at the lowest priority, for the next run.  Only when
+in a forked process at the lowest priority, for the next run (one such build
+per robot at a time, its cost reported by the next run, a failure said once
+and not retried: ``background``).  Only when
 native code is on in its default mode (``ANADYN_NATIVE`` unset), and
 ``ANADYN_GENERIC`` is not 0, on POSIX (fork), for robots the tables can hold.
 A ``GenericModel`` computes rhs, accelerations, driven accelerations, the
@@ -52,13 +54,14 @@ def enabled() -> bool:
 _KERNEL: list = []
 
 
-def kernel():
+def kernel(timings: dict | None = None):
     """The compiled kernel module (built now the first time ever: once per
-    installation and cache folder), or None when native code cannot be built."""
+    installation and cache folder, the compile's time in ``timings``), or None
+    when native code cannot be built."""
     if not _KERNEL:
         from .. import native
 
-        module, _ = native.load(c_text(), how="wait")
+        module, _ = native.load(c_text(), timings, how="wait")
         _KERNEL.append(module)
     return _KERNEL[0]
 
@@ -93,7 +96,7 @@ class GenericModel(NumericModel):
         self._B = tables.A.T @ self._select                       # constant: theta affine
         self._B.setflags(write=False)
         self._zero = np.zeros(nm)
-        self.native_note = "generic kernel (the robot's own code is built for the next run)"
+        self.native_note = "generic kernel"      # first_run adds what becomes of the robot's code
 
     def full(self) -> NumericModel:
         """The generated Python of the recursive path (built on first use)."""
@@ -201,21 +204,27 @@ def small_source(pl, robot) -> str:
                       vector, f"NO_LAWS = {no_laws}", ""]) + trajectory.motion_source(robot)
 
 
-def first_run(robot, pl, info, full, background) -> GenericModel | None:
+def first_run(robot, pl, info, full, own_code, entry: str,
+              timings: dict | None = None) -> GenericModel | None:
     """A GenericModel for a cold run of ``robot`` (its plan ``pl``), starting
-    ``background()`` (the robot's own code, generated, stored and compiled) in a
-    forked process; None when the kernel cannot serve (``enabled``, no fork, no
-    kernel, or tables that cannot hold the robot): the caller goes on as before."""
+    ``own_code()`` (the robot's own code, generated, compiled and stored under the
+    cache entry ``entry``) in a forked process unless it is being built or failed
+    (``background.start``); None when the kernel cannot serve (``enabled``, no
+    fork, no kernel, or tables that cannot hold the robot): the caller goes on as
+    before.  ``timings``: the kernel's compile, the first time ever."""
+    from .. import background
+
     if not (enabled() and hasattr(os, "fork")):
         return None
     tables, _ = pack(pl)
     if tables is None:
         return None
-    module = kernel()
+    module = kernel(timings)
     if module is None:
         return None
     model = GenericModel(info, pl, tables, module, small_source(pl, robot), full)
-    _fork(background)
+    model.native_note = (f"generic kernel (the robot's own code "
+                         f"{background.start(entry, own_code, _fork)})")
     return model
 
 

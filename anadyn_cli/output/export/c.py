@@ -9,6 +9,8 @@ pseudo-inverse) is fixed-size loops over local arrays.
 """
 from __future__ import annotations
 
+from importlib import resources
+from string import Template
 from typing import Callable
 
 import sympy as sp
@@ -326,148 +328,24 @@ def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
     return "\n".join(lines)
 
 
+def _template(name: str, **fields) -> list[str]:
+    """The lines of the template ``name`` (beside this file), its ``${field}``s filled in
+    (string.Template)."""
+    text = resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
+    return Template(text).substitute(fields).split("\n")
+
+
 def _linear_algebra(N: str, NQ: str, NE: str, n: int, m: int) -> list[str]:
-    lines = [
-        "/* In place: the lower triangle of the row-major n x n A becomes L, A = L L^T.",
-        "   Returns -1 at a pivot that is not positive (A singular or indefinite, or NaN). */",
-        f"static int {N}_cholesky(double *A)",
-        "{",
-        "    int i, j, k;",
-        f"    for (j = 0; j < {NQ}; ++j) {{",
-        f"        double d = A[j * {NQ} + j];",
-        "        for (k = 0; k < j; ++k)",
-        f"            d -= A[j * {NQ} + k] * A[j * {NQ} + k];",
-        "        if (!(d > 0.0))",
-        "            return -1;",
-        "        d = sqrt(d);",
-        f"        A[j * {NQ} + j] = d;",
-        f"        for (i = j + 1; i < {NQ}; ++i) {{",
-        f"            double s = A[i * {NQ} + j];",
-        "            for (k = 0; k < j; ++k)",
-        f"                s -= A[i * {NQ} + k] * A[j * {NQ} + k];",
-        f"            A[i * {NQ} + j] = s / d;",
-        "        }",
-        "    }",
-        "    return 0;",
-        "}",
-        "",
-        "/* b <- (L L^T)^-1 b, L from _cholesky */",
-        f"static void {N}_cholesky_solve(const double *L, double *b)",
-        "{",
-        "    int i, k;",
-        f"    for (i = 0; i < {NQ}; ++i) {{",
-        "        double s = b[i];",
-        "        for (k = 0; k < i; ++k)",
-        f"            s -= L[i * {NQ} + k] * b[k];",
-        f"        b[i] = s / L[i * {NQ} + i];",
-        "    }",
-        f"    for (i = {NQ} - 1; i >= 0; --i) {{",
-        "        double s = b[i];",
-        f"        for (k = i + 1; k < {NQ}; ++k)",
-        f"            s -= L[k * {NQ} + i] * b[k];",
-        f"        b[i] = s / L[i * {NQ} + i];",
-        "    }",
-        "}",
-        ""]
+    """``N_cholesky`` and ``N_cholesky_solve`` (cholesky.c.in) and, with
+    actuators, ``N_pseudo_solve`` (pseudo_solve.c.in): the Jacobi SVD of
+    A = B (m <= n) or B^T (m > n), rows x cols with rows >= cols, and
+    pinv(B) r = V S^+ U^T r (m <= n) or U S^+ V^T r (m > n)."""
+    lines = _template("cholesky.c.in", N=N, NQ=NQ)
     if not m:
         return lines
     rows, cols = (n, m) if m <= n else (m, n)
-    # A = B (m <= n) or B^T (m > n): rows x cols, rows >= cols
-    fill = (f"            U[i * {cols} + j] = B[i * {NE} + j];" if m <= n
-            else f"            U[i * {cols} + j] = B[j * {NE} + i];")
-    # pinv(B) r = V S^+ U^T r (m <= n), U S^+ V^T r (m > n)
-    if m <= n:
-        apply = [
-            f"    for (j = 0; j < {cols}; ++j) {{",
-            "        double s = 0.0;",
-            "        if (sigma[j] > tol) {",
-            f"            for (i = 0; i < {rows}; ++i)",
-            f"                s += U[i * {cols} + j] * r[i];",
-            "            s /= sigma[j];",
-            "        }",
-            "        y[j] = s;",
-            "    }",
-            f"    for (i = 0; i < {cols}; ++i) {{",
-            "        double s = 0.0;",
-            f"        for (j = 0; j < {cols}; ++j)",
-            f"            s += V[i * {cols} + j] * y[j];",
-            "        tau[i] = s;",
-            "    }"]
-    else:
-        apply = [
-            f"    for (j = 0; j < {cols}; ++j) {{",
-            "        double s = 0.0;",
-            "        if (sigma[j] > tol) {",
-            f"            for (i = 0; i < {cols}; ++i)",
-            f"                s += V[i * {cols} + j] * r[i];",
-            "            s /= sigma[j];",
-            "        }",
-            "        y[j] = s;",
-            "    }",
-            f"    for (i = 0; i < {rows}; ++i) {{",
-            "        double s = 0.0;",
-            f"        for (j = 0; j < {cols}; ++j)",
-            f"            s += U[i * {cols} + j] * y[j];",
-            "        tau[i] = s;",
-            "    }"]
-    lines += [
-        f"/* tau = pinv(B) r for the row-major n x m = {n} x {m} B, by a one-sided Jacobi SVD",
-        "   (Hestenes) of B or B^T; singular values below max(n, m) eps sigma_max count",
-        "   as zero (MATLAB's pinv tolerance). */",
-        f"static void {N}_pseudo_solve(const double *B, const double *r, double *tau)",
-        "{",
-        f"    double U[{rows} * {cols}], V[{cols} * {cols}], sigma[{cols}], y[{cols}];",
-        "    double tol, largest = 0.0;",
-        "    int i, j, k, sweep, rotated = 1;",
-        f"    for (i = 0; i < {rows}; ++i)",
-        f"        for (j = 0; j < {cols}; ++j)",
-        fill,
-        f"    for (i = 0; i < {cols}; ++i)",
-        f"        for (j = 0; j < {cols}; ++j)",
-        f"            V[i * {cols} + j] = (i == j) ? 1.0 : 0.0;",
-        "    for (sweep = 0; sweep < 60 && rotated; ++sweep) {",
-        "        rotated = 0;",
-        f"        for (j = 0; j + 1 < {cols}; ++j)",
-        f"            for (k = j + 1; k < {cols}; ++k) {{",
-        "                double alpha = 0.0, beta = 0.0, gamma = 0.0, zeta, tn, c, s;",
-        f"                for (i = 0; i < {rows}; ++i) {{",
-        f"                    alpha += U[i * {cols} + j] * U[i * {cols} + j];",
-        f"                    beta += U[i * {cols} + k] * U[i * {cols} + k];",
-        f"                    gamma += U[i * {cols} + j] * U[i * {cols} + k];",
-        "                }",
-        "                if (!(fabs(gamma) > DBL_EPSILON * sqrt(alpha * beta)))",
-        "                    continue;",
-        "                rotated = 1;",
-        "                zeta = (beta - alpha) / (2.0 * gamma);",
-        "                tn = (zeta >= 0.0 ? 1.0 : -1.0) / (fabs(zeta) + hypot(1.0, zeta));",
-        "                c = 1.0 / hypot(1.0, tn);",
-        "                s = c * tn;",
-        f"                for (i = 0; i < {rows}; ++i) {{",
-        f"                    double a = U[i * {cols} + j], b = U[i * {cols} + k];",
-        f"                    U[i * {cols} + j] = c * a - s * b;",
-        f"                    U[i * {cols} + k] = s * a + c * b;",
-        "                }",
-        f"                for (i = 0; i < {cols}; ++i) {{",
-        f"                    double a = V[i * {cols} + j], b = V[i * {cols} + k];",
-        f"                    V[i * {cols} + j] = c * a - s * b;",
-        f"                    V[i * {cols} + k] = s * a + c * b;",
-        "                }",
-        "            }",
-        "    }",
-        f"    for (j = 0; j < {cols}; ++j) {{",
-        "        double s = 0.0;",
-        f"        for (i = 0; i < {rows}; ++i)",
-        f"            s += U[i * {cols} + j] * U[i * {cols} + j];",
-        "        sigma[j] = sqrt(s);",
-        "        if (sigma[j] > largest)",
-        "            largest = sigma[j];",
-        "    }",
-        f"    tol = {max(n, m)} * DBL_EPSILON * largest;",
-        f"    for (j = 0; j < {cols}; ++j)",
-        "        if (sigma[j] > tol)",
-        f"            for (i = 0; i < {rows}; ++i)",
-        f"                U[i * {cols} + j] /= sigma[j];",
-        *apply,
-        "}",
-        ""]
-    return lines
+    first, second = (("U", rows), ("V", cols)) if m <= n else (("V", cols), ("U", rows))
+    return lines + _template(
+        "pseudo_solve.c.in", N=N, n=n, m=m, rows=rows, cols=cols, largest=max(n, m),
+        b_index=f"i * {NE} + j" if m <= n else f"j * {NE} + i",
+        first=first[0], first_rows=first[1], second=second[0], second_rows=second[1])

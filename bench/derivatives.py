@@ -1,0 +1,111 @@
+"""Open-loop derivatives (``anadyn.derivatives``) against Pinocchio, in one run.
+
+    python3 bench/derivatives.py [--batch N]
+
+Per call (one state, from Python): anadyn's ``forward_derivatives`` (the C
+extension; the generated Python in its own column) against
+Pinocchio's ``computeABADerivatives`` (goal: anadyn / Pinocchio <= 0.5) and against
+central differences of anadyn's own forward dynamics (2 (2n + m) calls of
+``forward_dynamics``), on the UR5 (n = 6), the Panda (n = 8: 7 arm joints and a
+finger with its mimic) and example-robot-data's Baxter (n = 17), roots welded.
+Batched, N states (default 10,000): ``forward_dynamics`` and ``forward_derivatives``
+in one call against a Python loop of Pinocchio's ``aba`` / ``computeABADerivatives``
+and against a Python loop of anadyn's single-state call (timed on N/10 states and
+scaled).  Prints times and ratios (best of a few repeats; the machine is noisy).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))
+
+import anadyn  # noqa: E402
+from anadyn_cli import robot_from_text  # noqa: E402
+from anadyn_cli.model.urdf import import_file  # noqa: E402
+from test_generic_kernel import URDFS  # noqa: E402
+
+
+def best(f, repeat: int = 5, number: int = 20) -> float:
+    """Seconds per call of f(), the best of ``repeat`` runs of ``number`` calls."""
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        for _ in range(number):
+            f()
+        times.append((time.perf_counter() - start) / number)
+    return min(times)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--batch", type=int, default=10_000)
+    N = parser.parse_args(argv).batch
+    rng = np.random.default_rng(0)
+    print(f"{'robot':8} {'n':>3} {'anadyn us':>10} {'pinocchio us':>13} {'ratio':>6} "
+          f"{'central diff us':>16} {'ratio':>6} {'python us':>10}")
+    batched = []
+    for name in ("ur5", "panda", "baxter"):
+        path = URDFS[name]
+        if path is None or not path.exists():
+            print(f"{name}: URDF not installed")
+            continue
+        robot = robot_from_text(import_file(path, fix_base=True).text, path.name)
+        d = anadyn.derivatives(robot)
+        if d.native is None:
+            print(f"{name}: no C ({d.note}): the generated Python runs")
+        python = anadyn.derivatives(robot, native=False)
+        n, m = d.n, d.m
+        model = pin.buildModelFromUrdf(str(path))
+        data = model.createData()
+        q, dq, tau = rng.uniform(-1, 1, n), rng.uniform(-1, 1, n), rng.uniform(-1, 1, m)
+        qp, vp, tp = (rng.uniform(-1, 1, model.nv) for _ in range(3))
+        ours = best(lambda: d.forward_derivatives(0.0, q, dq, tau), number=200)
+        slow = best(lambda: python.forward_derivatives(0.0, q, dq, tau), repeat=3)
+        theirs = best(lambda: pin.computeABADerivatives(model, data, qp, vp, tp), number=200)
+        x = np.concatenate([q, dq, tau])
+        h = 1e-6
+
+        def central():
+            for k in range(2 * n + m):
+                for s in (h, -h):
+                    y = x.copy()
+                    y[k] += s
+                    d.forward_dynamics(0.0, y[:n], y[n:2 * n], y[2 * n:])
+
+        fd = best(central, number=20)
+        print(f"{name:8} {n:3d} {ours * 1e6:10.2f} {theirs * 1e6:13.2f} {ours / theirs:6.2f} "
+              f"{fd * 1e6:16.1f} {ours / fd:6.3f} {slow * 1e6:10.0f}")
+
+        Q, DQ, TAU = (rng.uniform(-1, 1, (N, k)) for k in (n, n, m))
+        QP = rng.uniform(-1, 1, (N, model.nv))
+        rows = []
+        for what, call, pin_call in (
+                ("forward_dynamics", d.forward_dynamics,
+                 lambda i: pin.aba(model, data, QP[i], vp, tp)),
+                ("forward_derivatives", d.forward_derivatives,
+                 lambda i: pin.computeABADerivatives(model, data, QP[i], vp, tp))):
+            one_call = best(lambda call=call: call(0.0, Q, DQ, TAU), repeat=2, number=1)
+            pin_loop = best(lambda pin_call=pin_call: [pin_call(i) for i in range(N)], 2, 1)
+            k = max(1, N // 10)
+            loop = best(lambda call=call: [call(0.0, Q[i], DQ[i], TAU[i]) for i in range(k)],
+                        2, 1) * N / k
+            rows.append((name, n, what, one_call, pin_loop, loop))
+        batched += rows
+    print(f"\nbatched, N = {N} states (seconds per N states)")
+    print(f"{'robot':8} {'n':>3} {'function':20} {'one call':>9} {'pinocchio loop':>15} "
+          f"{'ratio':>6} {'anadyn loop':>12} {'ratio':>6}")
+    for name, n, what, one_call, pin_loop, loop in batched:
+        print(f"{name:8} {n:3d} {what:20} {one_call:9.3f} {pin_loop:15.3f} "
+              f"{one_call / pin_loop:6.2f} {loop:12.3f} {one_call / loop:6.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
