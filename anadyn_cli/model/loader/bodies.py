@@ -39,7 +39,9 @@ class _Bodies:
         bodies: dict[str, Body] = {}
         cursors: dict[str, Cursor] = {}
         units: dict[str, str] = {}
-        carriers = {item.value.get("parent") for item in items if isinstance(item.value, dict)}
+        carriers = {item.value.get("parent") for item in items          # names only: a bad
+                    if isinstance(item.value, dict)                     # parent is refused
+                    and isinstance(item.value.get("parent"), str)}      # in its own place
         for k, item in enumerate(items):
             body = self.body(item, iter(defaults.get(k, ())), units, carriers)
             if body.name in bodies:
