@@ -8,7 +8,7 @@ simulate: loads the URDF, sets gravity, integrates x = [q, v] under the PD
 laws and joint friction tau = -b v - k (q - target) - f tanh(v / v0) with
 scipy's odeint (LSODA) calling ABA, with the analytic Jacobian from
 Pinocchio's ABA derivatives (d(ddq)/dx = [ddq_dq - Minv K, ddq_dv - Minv
-(B + f / v0 sech^2(v / v0))]), at the same tolerances as anadyn, and writes
+(B + f / v0 (1 - tanh^2(v / v0)))]), at the same tolerances as anadyn, and writes
 t, q, v, tau at full precision.  JOB.json holds the joint names (anadyn's
 coordinate order), initial q, targets, gains, friction (optional), gravity,
 t_end, dt, rtol, atol.  Prints the RHS and Jacobian calls.
@@ -28,8 +28,8 @@ from scipy.integrate import odeint
 
 
 def setup(urdf: str, job_path: str):
-    """(job, model, data, order, place, b, k, target, f, v0), the job's arrays in
-    Pinocchio's order."""
+    """(job, model, data, place, b, k, target, f, v0): the job's arrays in Pinocchio's
+    order (``place``: Pinocchio's index -> the job's)."""
     with open(job_path) as f:
         job = json.load(f)
     model = pin.buildModelFromUrdf(urdf)
@@ -41,12 +41,12 @@ def setup(urdf: str, job_path: str):
     place[order] = np.arange(n)              # pinocchio index -> job index
     f = np.array(job.get("friction", [0.0] * n))[place]
     v0 = np.array(job.get("friction_velocity", [1.0] * n))[place]
-    return (job, model, data, order, place, np.array(job["damping"])[place],
+    return (job, model, data, place, np.array(job["damping"])[place],
             np.array(job["stiffness"])[place], np.array(job["target"])[place], f, v0)
 
 
 def inverse(urdf: str, job_path: str, motion: str, out: str) -> None:
-    job, model, data, order, place, b, k, target, f, v0 = setup(urdf, job_path)
+    job, model, data, place, b, k, target, f, v0 = setup(urdf, job_path)
     n = model.nv
     with open(motion) as handle:
         header = handle.readline().strip().split(",")
@@ -66,7 +66,7 @@ def inverse(urdf: str, job_path: str, motion: str, out: str) -> None:
 
 
 def main(urdf: str, job_path: str, out: str) -> None:
-    job, model, data, order, place, b, k, target, fr, v0 = setup(urdf, job_path)
+    job, model, data, place, b, k, target, fr, v0 = setup(urdf, job_path)
     n = model.nv
     calls = [0, 0]
 
@@ -85,7 +85,7 @@ def main(urdf: str, job_path: str, out: str) -> None:
         J = np.zeros((2 * n, 2 * n))
         J[:n, n:] = np.eye(n)
         J[n:, :n] = dq - Minv * k
-        J[n:, n:] = dv - Minv * (b + fr / v0 / np.cosh(v / v0) ** 2)
+        J[n:, n:] = dv - Minv * (b + fr / v0 * (1 - np.tanh(v / v0) ** 2))
         return J
 
     steps = int(round(job["t_end"] / job["dt"]))
@@ -94,7 +94,7 @@ def main(urdf: str, job_path: str, out: str) -> None:
     x = odeint(f, x0, grid, Dfun=jac, rtol=job["rtol"], atol=job["atol"], mxstep=10**6)
     q, v = x[:, :n], x[:, n:]
     tau = tau_of(q, v)
-    names = [f"q_{j}" for j in np.array(job["joints"])[order]]
+    names = [f"q_{j}" for j in np.array(job["joints"])[place]]
     header = ["t", *names, *("d" + s for s in names), *(f"tau_{s[2:]}" for s in names)]
     np.savetxt(out, np.column_stack((grid, q, v, tau)), delimiter=",", fmt="%.17g",
                header=",".join(header), comments="")
