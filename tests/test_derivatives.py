@@ -21,12 +21,10 @@ import numpy as np
 import pytest
 
 import anadyn
-from anadyn_cli import robot_from_text
-from anadyn_cli.model.urdf import import_file
-from anadyn_cli.numeric import generic, native as cc, recursive
+from anadyn_cli.numeric import native as cc
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_generic_kernel import URDFS, passive, rel  # noqa: E402
+from test_generic_kernel import passive, pinocchio_pair, rel  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOTS = ["ur5", "so101", "panda", "baxter"]
@@ -55,16 +53,7 @@ def passive_derivatives(pl, dtheta):
                    marks=[pytest.mark.slow] if (name, native) == ("baxter", True) else [])
       for name in ROBOTS for native in (True, False)]])
 def test_derivatives_match_pinocchio(name, native, monkeypatch):
-    pin = pytest.importorskip("pinocchio")
-    path = URDFS[name]
-    if path is None or not path.exists():
-        pytest.skip(f"{name}: URDF not installed")
-    robot = robot_from_text(import_file(path, fix_base=True).text, path.name)
-    pl = recursive.plan(robot)
-    A, c = generic.tables.affine_map(pl)              # theta = A q + c
-    model = pin.buildModelFromUrdf(str(path))
-    model.gravity.linear = np.array(pl.gravity)
-    data = model.createData()
+    pin, robot, pl, A, c, model, data = pinocchio_pair(name)  # theta = A q + c
     n, nm, m = pl.n, len(pl.moving), len(pl.actuator_joint)
     identity = A.shape == (nm, n) and np.array_equal(A, np.eye(n)) and nm == n
 

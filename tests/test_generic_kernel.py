@@ -91,20 +91,27 @@ def passive(pl, theta, dtheta) -> np.ndarray:
     return np.array(out)
 
 
-@pytest.mark.parametrize("name", list(URDFS))
-def test_kernel_matches_pinocchio(name, kernel):
+def pinocchio_pair(name):
+    """(pinocchio, anadyn's robot of URDFS[name] with the root welded, its plan, A
+    and c of its joint map theta = A q + c, Pinocchio's model of the same file and
+    its data); skips where Pinocchio or the URDF is missing."""
     pin = pytest.importorskip("pinocchio")
     path = URDFS[name]
     if path is None or not path.exists():
         pytest.skip(f"{name}: URDF not installed")
     robot = robot_from_text(import_file(path, fix_base=True).text, path.name)
     pl = recursive.plan(robot)
-    tables, why = generic.pack(pl)
-    assert tables is not None, why
-    A, c = generic.tables.affine_map(pl)              # theta = A q + c (mimic joints)
+    A, c = generic.tables.affine_map(pl)
     model = pin.buildModelFromUrdf(str(path))
     model.gravity.linear = np.array(pl.gravity)
-    data = model.createData()
+    return pin, robot, pl, A, c, model, model.createData()
+
+
+@pytest.mark.parametrize("name", list(URDFS))
+def test_kernel_matches_pinocchio(name, kernel):
+    pin, _, pl, A, c, model, data = pinocchio_pair(name)
+    tables, why = generic.pack(pl)
+    assert tables is not None, why
     n, nm = pl.n, len(pl.moving)
     assert model.nv == nm and model.nq == nm
 
