@@ -81,7 +81,7 @@ class GenericModel(NumericModel):
         self.evaluator, self.formulation = "recursive", None
         self.coordinates, self.effort_names = tuple(pl.coordinates), tuple(pl.efforts)
         self.n = pl.n
-        self._tables, self._kernel, self._make_full, self._full = tables, module, full, None
+        self._kernel, self._make_full, self._full = module, full, None
         self._ints, self._doubles = tables.ints, tables.doubles
         self._laws = namespace["laws"] if self.effort_names and not namespace["NO_LAWS"] else None
         self._efforts = namespace["efforts"]
