@@ -88,7 +88,10 @@ def _main(argv: list[str] | None) -> int:
     try:
         _register_commands()
         with progress.session():          # what long commands are doing, on stderr
-            app(args=argv, prog_name="anadyn")
+            try:
+                app(args=argv, prog_name="anadyn")
+            finally:
+                progress.raise_lost()
     except SystemExit as done:
         return done.code if isinstance(done.code, int) else (0 if done.code is None else 1)
     except SettingError as err:

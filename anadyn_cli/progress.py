@@ -85,6 +85,7 @@ class Task:
         self.session = None             # the session it was started in
 
     def advance(self, step: int = 1, detail: str | None = None) -> None:
+        raise_lost()
         with _lock:
             self.completed += step
             if detail is not None:
@@ -94,6 +95,7 @@ class Task:
 
     def note(self, detail: str) -> None:
         """Say what part of the task runs now."""
+        raise_lost()
         with _lock:
             self.detail = detail
             if _session is not None:
@@ -125,6 +127,7 @@ class Task:
 def start(description: str, total: int | None = None, plain: bool = True) -> Task:
     """A task named ``description`` (``total`` steps, if known) running from now until
     ``finish``; ``plain=False`` shows it on a terminal only."""
+    raise_lost()
     job = Task(description, total, plain)
     with _lock:
         job.session = _session
@@ -303,8 +306,9 @@ class Interrupted(BaseException):
         self.signum = signum
 
 
-#: the first signal; the one held by open uninterrupted() blocks, and how many are open
-_signals = {"received": None, "held": None, "deferring": 0}
+#: the first signal; the one held by open uninterrupted() blocks, and how many are
+#: open; the one whose Interrupted Python swallowed
+_signals = {"received": None, "held": None, "deferring": 0, "lost": None}
 
 
 def _on_signal(signum: int, frame) -> None:
@@ -317,17 +321,42 @@ def _on_signal(signum: int, frame) -> None:
         raise Interrupted(signum)
 
 
+def _keep_lost(unraisable) -> None:
+    """``sys.unraisablehook`` while anadyn's handlers are in.  An ``Interrupted`` raised
+    where Python can only print it and go on (a weakref callback of the import
+    machinery, a ``__del__``) is kept, silently, and raised at the next checkpoint
+    (``raise_lost``).  Anything else goes to the default hook."""
+    if isinstance(unraisable.exc_value, Interrupted):
+        _signals["lost"] = unraisable.exc_value.signum
+    else:
+        sys.__unraisablehook__(unraisable)
+
+
+def raise_lost() -> None:
+    """Raise the ``Interrupted`` that Python swallowed (``_keep_lost``), if any: called
+    in the main thread whenever a task starts or moves on, after an ``uninterrupted``
+    block and when the command line's command returns."""
+    if _signals["lost"] is not None and not _signals["deferring"] \
+            and threading.current_thread() is threading.main_thread():
+        signum, _signals["lost"] = _signals["lost"], None
+        raise Interrupted(signum)
+
+
 def stop_on_signals() -> Callable[[], None]:
     """Make SIGINT and SIGTERM raise ``Interrupted`` (in the main thread; elsewhere a
-    no-op); returns what puts the earlier handlers back."""
+    no-op); returns what puts the earlier handlers back.  Installed a second time
+    (the console script, then ``cli.main``), a signal already received is kept."""
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
     earlier = {signum: signal.signal(signum, _on_signal) for signum in SIGNALS}
-    _signals.update(received=None, held=None)
+    earlier_hook, sys.unraisablehook = sys.unraisablehook, _keep_lost
+    if any(handler is not _on_signal for handler in earlier.values()):
+        _signals.update(received=None, held=None, lost=None)
 
     def restore() -> None:
         for signum, handler in earlier.items():
             signal.signal(signum, handler)
+        sys.unraisablehook = earlier_hook
     return restore
 
 
@@ -342,6 +371,7 @@ def uninterrupted():
     if not _signals["deferring"] and _signals["held"] is not None:
         signum, _signals["held"] = _signals["held"], None
         raise Interrupted(signum)
+    raise_lost()
 
 
 def interruption(signum: int) -> tuple[str, int]:

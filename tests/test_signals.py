@@ -17,6 +17,7 @@ import subprocess
 import sys
 import threading
 import time
+import weakref
 from pathlib import Path
 
 import pytest
@@ -222,6 +223,29 @@ def test_a_signal_inside_uninterrupted_waits_for_its_end():
         assert done == ["whole"] and stopped.value.signum == signal.SIGTERM
     finally:
         restore()
+
+
+def test_a_signal_where_python_can_only_print_the_exception_still_stops(
+        monkeypatch, capsys, tmp_path):
+    """A signal handled inside a weakref callback (where the import machinery was when
+    a CI run sent SIGINT at startup): Python prints the exception and goes on; anadyn
+    keeps it, prints nothing, and stops the command before its first task."""
+    from anadyn_cli.commands import common
+
+    class Thing:
+        pass
+
+    def signalled_in_a_callback(value):
+        thing = Thing()
+        ref = weakref.ref(thing, lambda _: signal.raise_signal(signal.SIGINT))
+        del thing                              # the callback runs, the handler inside it
+        assert ref() is None
+        return value
+
+    monkeypatch.setattr(common.OutOpt, "callback", signalled_in_a_callback)
+    assert main(["simulate", str(RR), "--no-plot", "--out", str(tmp_path / "out")]) == 130
+    assert capsys.readouterr().err == LINE[signal.SIGINT]
+    assert not (tmp_path / "out").exists()
 
 
 def test_ctrl_c_before_the_command_parses_its_options_is_130(monkeypatch, capsys):
