@@ -129,21 +129,27 @@ def numeric_model(robot, formulation: str | None = None, evaluator: str | None =
                  evaluator=evaluator)
 
 
-def derivatives(robot, native: bool = True):
+def derivatives(robot, native: bool = True, parameters=()):
     """The open-loop derivatives of the forward and inverse dynamics (recursive
     path, open trees): ``forward_derivatives(t, q, dq, tau)``,
-    ``inverse_derivatives(t, q, dq, ddq)``, ``mass_matrix_inverse(q)``, at one state
-    or at N states (rows); shapes in ``anadyn_cli.numeric.derivatives``.
+    ``inverse_derivatives(t, q, dq, ddq)``, ``mass_matrix_inverse(q)``, and with
+    ``parameters`` ``forward_parameter_derivatives(t, q, dq, tau)`` (d(ddq)/dp, (n, k)),
+    ``inverse_parameter_derivatives(t, q, dq, ddq)`` (d(ID)/dp, (n, k)) and
+    ``closed_loop_parameter_derivatives(t, q, dq)`` (d(ddq)/dp under the control laws),
+    at one state or at N states (rows); shapes in ``anadyn_cli.numeric.derivatives``.
 
     :param robot: see ``load``.
     :param native: run C (compiled now on first use, then cached; the generated
         Python, vectorized by NumPy, without a compiler); False: the Python.
+    :param parameters: names of the robot file's parameters (a mass, a length, an
+        inertia, g, ...) or gains to differentiate with respect to, in the columns'
+        order.
     :returns: a ``Derivatives`` (``native`` is the C extension or None, ``note``
         says why).
     """
     from .numeric.derivatives import derivatives as build
 
-    return build(load(robot), native)
+    return build(load(robot), native, parameters)
 
 
 def simulate(robot, formulation: str | None = None, evaluator: str | None = None,
@@ -565,6 +571,96 @@ def robots():
     from .model import library
 
     return library.listing()
+
+
+def parametric_model(robot):
+    """The robot's dynamics linear in its parameters, Q = Y(q, dq, ddq) pi (open trees;
+    each joint displacement linear in the coordinates).
+
+    :param robot: see ``load``.
+    :returns: a ``ParametricModel``: ``regressor(q, dq, ddq)`` (N, n, p),
+        ``actuator_regressor`` (N, m, p), ``names`` (10 per body: m, m*cx, m*cy, m*cz,
+        Ixx, Ixy, Iyy, Ixz, Iyz, Izz about the body origin in body axes; per moving
+        joint Ia, Fv, Fc), ``nominal`` (the file's pi).
+    """
+    from .studies.identification.regressor import parametric_model as build
+
+    return build(load(robot))
+
+
+def base_parameters(robot, exact: bool | None = None, states: int = 60, seed: int = 0):
+    """The identifiable combinations of the parameters (``equations --base-parameters``).
+
+    :param robot: see ``load``.
+    :param exact: also solve the coefficients exactly from Kane's equations [robots of up
+        to three coordinates].
+    :param states: random states of the rank-revealing QR.
+    :param seed: their seed.
+    :returns: a ``BaseParameters``: ``rank``, ``K`` (base = K pi), ``expressions()``,
+        ``exact`` (rational coefficients or None).
+    """
+    from .studies.identification.base import base_parameters as compute
+
+    return compute(parametric_model(robot), states, seed, exact)
+
+
+def identify(robot, data, out: str | Path | None = None, holdout: float = 0.2,
+             physical: bool = False, smoothing_window: int | None = None,
+             smoothing_order: int | None = None):
+    """Base parameters from measured motion and efforts (``anadyn identify``).
+
+    :param robot: see ``load``.
+    :param data: a CSV with the columns of inverse.csv: t, each coordinate, optionally
+        d<q> and dd<q>, each actuator.
+    :param out: folder for identify.csv, identify.png, identify_residuals.png,
+        NAME_identified.yaml and identify.json; None: write nothing.
+    :param holdout: the last fraction of the samples, kept out of the estimate to judge
+        its predictions.
+    :param physical: fit the physically consistent parameters for the robot file.
+    :param smoothing_window: the Savitzky-Golay window for missing rates (odd) [21].
+    :param smoothing_order: its degree [3].
+    :returns: an ``Identification`` (``estimate``, ``std``, ``condition``, ``predicted``,
+        ``pi``, ``rms()``, ``robot_text``).
+    """
+    from .numeric import measured
+    from .studies.identification import estimate as service
+
+    model = parametric_model(robot)
+    how = measured.Differentiator.given(smoothing_window, smoothing_order)
+    result = service.identify(model, service.read_measurements(data, model, how),
+                              holdout=holdout, physical=physical)
+    if out is not None:
+        service.write(result, Path(out))
+    return result
+
+
+def excite(robot, out: str | Path | None = None, period: float = 10.0, harmonics: int = 5,
+           samples: int = 100, margin: float = 0.9, seed: int = 0, iterations: int = 100,
+           output_step: float = 0.01):
+    """An exciting trajectory for identification (``anadyn excite``): Fourier series
+    within the joint limits, least condition number of the base regressor.
+
+    :param robot: see ``load``.
+    :param out: folder for excite.csv, NAME_excite.yaml and excite.json; None: write
+        nothing.
+    :param period: s.
+    :param harmonics: terms of each series.
+    :param samples: times of one period the condition number and limits are taken at.
+    :param margin: fraction of each limit used.
+    :param seed: of the random start.
+    :param iterations: of the optimizer (SLSQP).
+    :param output_step: step of excite.csv, s.
+    :returns: an ``Excitation`` (``t``, ``q``, ``dq``, ``ddq``, ``efforts``,
+        ``condition``, ``expressions()``).
+    """
+    from .studies.identification import excite as service
+
+    result = service.excite(parametric_model(robot), period=period, harmonics=harmonics,
+                            samples=samples, margin=margin, seed=seed,
+                            iterations=iterations, output_step=output_step)
+    if out is not None:
+        service.write(result, Path(out))
+    return result
 
 
 def _given(**settings) -> dict:

@@ -1,13 +1,17 @@
 """Open-loop derivatives (``anadyn.derivatives``) against Pinocchio, in one run.
 
-    python3 bench/derivatives.py [--batch N]
+    python3 bench/derivatives.py [--batch N] [--robots ur5,panda,solo12,baxter]
 
-Per call (one state, from Python): anadyn's ``forward_derivatives`` (the C
-extension; the generated Python in its own column) against
-Pinocchio's ``computeABADerivatives`` (goal: anadyn / Pinocchio <= 0.5) and against
-central differences of anadyn's own forward dynamics (2 (2n + m) calls of
-``forward_dynamics``), on the UR5 (n = 6), the Panda (n = 8: 7 arm joints and a
-finger with its mimic) and example-robot-data's Baxter (n = 17), roots welded.
+Per call (one state, from Python): anadyn's ``forward_derivatives`` and
+``inverse_derivatives`` (the C extension; the generated Python in its own column)
+against Pinocchio's ``computeABADerivatives`` and ``computeRNEADerivatives``
+(goal: anadyn / Pinocchio <= 0.5), and against central differences of anadyn's own
+forward dynamics (2 (2n + m) calls of ``forward_dynamics``), on the UR5 (n = 6),
+the Panda with its fingers locked (n = 7; Pinocchio's model reduced the same way),
+Solo-12 (n = 12, a tree of four legs) and, with --robots, example-robot-data's
+Baxter (n = 17), roots welded.  Where a call's time goes: ``kernel`` is the C
+extension called directly on arrays made beforehand (one state), the rest of a
+call is Python (argument checks, arrays, slicing).
 Batched, N states (default 10,000): ``forward_dynamics`` and ``forward_derivatives``
 in one call against a Python loop of Pinocchio's ``aba`` / ``computeABADerivatives``
 and against a Python loop of anadyn's single-state call (timed on N/10 states and
@@ -29,7 +33,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 import anadyn  # noqa: E402
 from anadyn_cli import robot_from_text  # noqa: E402
 from anadyn_cli.model.urdf import import_file  # noqa: E402
-from test_generic_kernel import URDFS  # noqa: E402
+from test_generic_kernel import URDFS, erd  # noqa: E402
 
 
 def best(f, repeat: int = 5, number: int = 20) -> float:
@@ -43,32 +47,55 @@ def best(f, repeat: int = 5, number: int = 20) -> float:
     return min(times)
 
 
+#: robot -> (URDF key, joints locked at 0): the Panda's fingers make n = 8 otherwise
+ROBOTS = {"ur5": ("ur5", ()), "panda": ("panda", ("panda_finger_joint1",)),
+          "solo12": ("solo12", ()), "baxter": ("baxter", ())}
+
+
+def pair(name: str):
+    """anadyn's robot and Pinocchio's model and data of the same URDF, root welded,
+    the locked joints removed from both; None where the URDF is missing."""
+    key, locked = ROBOTS[name]
+    path = URDFS.get(key) or erd("solo_description/robots/solo12.urdf")
+    if path is None or not path.exists():
+        return None
+    imported = import_file(path, fix_base=True, lock={j: 0 for j in locked})
+    robot = robot_from_text(imported.text, path.name)
+    model = pin.buildModelFromUrdf(str(path))
+    if locked:
+        # the locked joints and their mimics (panda_finger_joint1 and 2): same stem
+        ids = [model.getJointId(j) for j in model.names[1:]
+               if any(j.startswith(k.rstrip("0123456789")) for k in locked)]
+        model = pin.buildReducedModel(model, ids, pin.neutral(model))
+    return robot, model, model.createData()
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--batch", type=int, default=10_000)
-    N = parser.parse_args(argv).batch
+    parser.add_argument("--robots", default="ur5,panda,solo12")
+    args = parser.parse_args(argv)
+    N = args.batch
     rng = np.random.default_rng(0)
-    print(f"{'robot':8} {'n':>3} {'anadyn us':>10} {'pinocchio us':>13} {'ratio':>6} "
-          f"{'central diff us':>16} {'ratio':>6} {'python us':>10}")
+    print(f"{'robot':8} {'n':>3} {'function':8} {'anadyn us':>10} {'kernel us':>10} "
+          f"{'pinocchio us':>13} {'ratio':>6} {'kernel ratio':>13} {'central diff us':>16} "
+          f"{'ratio':>6} {'python us':>10}")
     batched = []
-    for name in ("ur5", "panda", "baxter"):
-        path = URDFS[name]
-        if path is None or not path.exists():
+    for name in args.robots.split(","):
+        found = pair(name)
+        if found is None:
             print(f"{name}: URDF not installed")
             continue
-        robot = robot_from_text(import_file(path, fix_base=True).text, path.name)
+        robot, model, data = found
         d = anadyn.derivatives(robot)
         if d.native is None:
             print(f"{name}: no C ({d.note}): the generated Python runs")
+            continue
         python = anadyn.derivatives(robot, native=False)
         n, m = d.n, d.m
-        model = pin.buildModelFromUrdf(str(path))
-        data = model.createData()
-        q, dq, tau = rng.uniform(-1, 1, n), rng.uniform(-1, 1, n), rng.uniform(-1, 1, m)
+        assert model.nv == n, (model.nv, n)
+        q, dq, tau, ddq = (rng.uniform(-1, 1, k) for k in (n, n, m, n))
         qp, vp, tp = (rng.uniform(-1, 1, model.nv) for _ in range(3))
-        ours = best(lambda: d.forward_derivatives(0.0, q, dq, tau), number=200)
-        slow = best(lambda: python.forward_derivatives(0.0, q, dq, tau), repeat=3)
-        theirs = best(lambda: pin.computeABADerivatives(model, data, qp, vp, tp), number=200)
         x = np.concatenate([q, dq, tau])
         h = 1e-6
 
@@ -80,8 +107,22 @@ def main(argv=None) -> int:
                     d.forward_dynamics(0.0, y[:n], y[n:2 * n], y[2 * n:])
 
         fd = best(central, number=20)
-        print(f"{name:8} {n:3d} {ours * 1e6:10.2f} {theirs * 1e6:13.2f} {ours / theirs:6.2f} "
-              f"{fd * 1e6:16.1f} {ours / fd:6.3f} {slow * 1e6:10.0f}")
+        for what, ours_call, kernel, third, width, pin_call, py_call in (
+                ("forward", d.forward_derivatives, d.native.forward, tau, n * (2 * n + m),
+                 lambda: pin.computeABADerivatives(model, data, qp, vp, tp),
+                 lambda: python.forward_derivatives(0.0, q, dq, tau)),
+                ("inverse", d.inverse_derivatives, d.native.inverse, ddq, 3 * n * n,
+                 lambda: pin.computeRNEADerivatives(model, data, qp, vp, tp),
+                 lambda: python.inverse_derivatives(0.0, q, dq, ddq))):
+            out = np.empty(width)
+            ours = best(lambda: ours_call(0.0, q, dq, third), number=200)
+            bare = best(lambda: kernel(1, 0.0, q, dq, third, out), number=200)
+            theirs = best(pin_call, number=200)
+            slow = best(py_call, repeat=3)
+            print(f"{name:8} {n:3d} {what:8} {ours * 1e6:10.2f} {bare * 1e6:10.2f} "
+                  f"{theirs * 1e6:13.2f} {ours / theirs:6.2f} {bare / theirs:13.2f} "
+                  + (f"{fd * 1e6:16.1f} {ours / fd:6.3f}" if what == "forward" else
+                     f"{'':16} {'':6}") + f" {slow * 1e6:10.0f}")
 
         Q, DQ, TAU = (rng.uniform(-1, 1, (N, k)) for k in (n, n, m))
         QP = rng.uniform(-1, 1, (N, model.nv))

@@ -36,7 +36,14 @@ def test_ci_config_covers_every_shipped_robot_with_every_command():
     covered = {(j.command, str(Path(j.robot).resolve().relative_to(ROOT))) for j in plan.jobs
                if j.expect.exit_code == 0}
     judged = ("simulate", "inverse", "compare", "accuracy", "check")   # what ci.yaml judges
-    assert covered == {(c, r) for c in judged for r in robots}
+    # MJCF robots (robots/*.xml: no trajectory) are judged by compare and check at least
+    mjcf = {str(p.relative_to(ROOT)) for p in (ROOT / "robots").glob("*.xml")}
+    # a spherical joint has no closed forms (compare) nor prescribed motions (inverse) yet
+    spherical = {"robots/spherical_pendulum.yaml", "robots/tumbling_box.yaml"}
+    assert covered - {(c, r) for c in judged for r in mjcf} == {
+        (c, r) for c in judged for r in robots
+        if r not in spherical or c not in ("compare", "inverse")}
+    assert {(c, r) for c in ("compare", "check") for r in mjcf} <= covered
     assert all(j.expect.paths for j in plan.jobs if j.expect.exit_code == 0)
 
 

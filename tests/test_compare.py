@@ -47,10 +47,14 @@ def inject(monkeypatch, part: str, term):
 
 
 def test_compare_passes_on_every_shipped_robot(tmp_path, monkeypatch, capsys):
-    """With no argument: every robots/*.yaml, closed chains and forces included."""
+    """With no argument: every robots/*.yaml, closed chains and forces included; those
+    with a spherical joint (no closed forms yet) left out, and said so."""
     monkeypatch.chdir(ROOT)
     assert main(["compare", "--out", str(tmp_path)]) == 0
-    names = {p.stem for p in (ROOT / "robots").glob("*.yaml")}
+    spherical = {"spherical_pendulum", "tumbling_box"}
+    assert f"left out (a spherical joint: no closed forms yet): " \
+           f"{', '.join(sorted(spherical))}" in capsys.readouterr().err
+    names = {p.stem for p in (ROOT / "robots").glob("*.yaml")} - spherical
     assert {p.parent.name for p in tmp_path.glob("*/compare.json")} == names  # a folder each
     for name in names:
         figures = json.loads((tmp_path / name / "compare.json").read_text())

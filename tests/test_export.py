@@ -637,3 +637,151 @@ def test_closed_chains_are_refused():
     with pytest.raises(Exception, match="loop.yaml: loop has constraints \\(closed loops\\); "
                                         "export handles open chains only"):
         service.export(Looped(), "c")
+
+
+# -- the derivatives (--derivatives) ------------------------------------------------------
+DERIVATIVE_CASES = [("robots/rr.yaml", ("m2", "L1", "g", "b01")),
+                    ("robots/rrt_friction.yaml", ("m3", "L2", "P")),
+                    ("robots/ur5.urdf", ()),
+                    ("robots/rrt.yaml", ("b01",)),          # a gain alone: dID/dp is zero
+                    ("no actuators", ("L2",))]
+
+
+def derivative_robot(path: str, folder: Path):
+    """The robot of a DERIVATIVE_CASES path; "no actuators": rr without its actuators."""
+    if path != "no actuators":
+        return load_robot(REPO / path)
+    text = robot_text("rr")
+    free = folder / "free.yaml"
+    free.write_text(text[:text.index("actuators:")])
+    return load_robot(free)
+
+
+def derivative_states(d, count: int = 5):
+    rng = np.random.default_rng(23)
+    return (rng.uniform(0, 2, count), rng.uniform(-1.5, 1.5, (count, d.n)),
+            rng.uniform(-1.5, 1.5, (count, d.n)), rng.uniform(-1.5, 1.5, (count, d.m)),
+            rng.uniform(-1.5, 1.5, (count, d.n)))
+
+
+def anadyn_derivatives(d, t, q, dq, tau, ddq) -> dict[str, np.ndarray]:
+    """What the exported functions return, from ``anadyn.derivatives``, flat per state."""
+    out = {"forward_dynamics": d.forward_dynamics(t, q, dq, tau),
+           "forward_derivatives": np.concatenate(d.forward_derivatives(t, q, dq, tau), axis=-1),
+           "inverse_derivatives": np.concatenate(d.inverse_derivatives(t, q, dq, ddq), axis=-2),
+           "mass_matrix_inverse": d.mass_matrix_inverse(q)}
+    if d.parameters:
+        out["forward_parameter_derivatives"] = d.forward_parameter_derivatives(t, q, dq, tau)
+        out["inverse_parameter_derivatives"] = d.inverse_parameter_derivatives(t, q, dq, ddq)
+        out["closed_loop_parameter_derivatives"] = d.closed_loop_parameter_derivatives(t, q, dq)
+    return {k: v.reshape(len(t), -1) for k, v in out.items()}
+
+
+@needs_gcc
+@pytest.mark.parametrize("path, parameters", DERIVATIVE_CASES)
+def test_exported_c_derivatives_match_anadyn(path, parameters, tmp_path):
+    """NAME_derivatives.c compiles under the export's strict flags; its functions, one
+    state and batched, equal anadyn.derivatives (the generated Python) to 1e-12."""
+    import anadyn
+
+    robot = derivative_robot(path, tmp_path)
+    result = service.export(robot, "c", derivatives=True, parameters=parameters)
+    service.write(result, tmp_path)
+    name = result.model.name
+    lib = compile_c(tmp_path, f"{name}_derivatives")
+    d = anadyn.derivatives(robot, native=False, parameters=parameters)
+    t, q, dq, tau, ddq = derivative_states(d)
+    want = anadyn_derivatives(d, t, q, dq, tau, ddq)
+    count = len(t)
+    x = np.ascontiguousarray(np.hstack([q, dq]))
+    pointer = ctypes.POINTER(ctypes.c_double)
+
+    def ptr(a):
+        return np.ascontiguousarray(a, dtype=float).ctypes.data_as(pointer)
+
+    for function, values in want.items():
+        third = ddq if function.startswith("inverse") else tau
+        single = getattr(lib, f"{name}_{function}")
+        single.restype = ctypes.c_int
+        batch = getattr(lib, f"{name}_{function}_batch")
+        batch.restype = ctypes.c_long
+        batch.argtypes = [ctypes.c_long, pointer, pointer, pointer, pointer]
+        out = np.empty_like(values)
+        assert batch(count, ptr(t), ptr(x), ptr(third), out.ctypes.data_as(pointer)) == -1
+        assert np.abs(out - values).max() <= 1e-12 * max(1.0, np.abs(values).max()), function
+        for k in range(count):
+            row = np.empty(values.shape[1])
+            assert single(ctypes.c_double(t[k]), ptr(x[k]), ptr(third[k]),
+                          row.ctypes.data_as(pointer)) == 0
+            assert np.array_equal(row, out[k]), function
+
+
+@pytest.mark.parametrize("path, parameters", DERIVATIVE_CASES)
+def test_exported_python_derivatives_match_anadyn(path, parameters, tmp_path):
+    """NAME_derivatives.py (NumPy, no anadyn) gives anadyn.derivatives' numbers, one state
+    and batched."""
+    import anadyn
+
+    robot = derivative_robot(path, tmp_path)
+    result = service.export(robot, "python", derivatives=True, parameters=parameters)
+    service.write(result, tmp_path)
+    name = result.model.name
+    text = (tmp_path / f"{name}_derivatives.py").read_text()
+    assert "anadyn" not in text.split('"""')[2]              # imports numpy and math only
+    module = load_module(tmp_path / f"{name}_derivatives.py")
+    assert module.PARAMETERS == tuple(parameters)
+    d = anadyn.derivatives(robot, native=False, parameters=parameters)
+    t, q, dq, tau, ddq = derivative_states(d)
+    want = anadyn_derivatives(d, t, q, dq, tau, ddq)
+    got = anadyn_derivatives(module_as_derivatives(module, parameters), t, q, dq, tau, ddq)
+    for function in want:
+        assert np.abs(got[function] - want[function]).max() <= 1e-12 * max(
+            1.0, np.abs(want[function]).max()), function
+    one = module.forward_derivatives(t[0], q[0], dq[0], tau[0])
+    assert [a.shape for a in one] == [(d.n, d.n), (d.n, d.n), (d.n, d.m)]
+
+
+def module_as_derivatives(module, parameters):
+    """The exported module with the attributes ``anadyn_derivatives`` reads."""
+    class Exported:
+        pass
+    exported = Exported()
+    for function in ("forward_dynamics", "forward_derivatives", "inverse_derivatives",
+                     "mass_matrix_inverse", "forward_parameter_derivatives",
+                     "inverse_parameter_derivatives", "closed_loop_parameter_derivatives"):
+        if hasattr(module, function):
+            setattr(exported, function, getattr(module, function))
+    exported.parameters = tuple(parameters)
+    return exported
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["--lang", "matlab", "--derivatives"],
+     "anadyn: error: --derivatives applies to lang c and python, not matlab\n"),
+    (["--lang", "c", "--parameter", "m2"],
+     "anadyn: error: --parameter needs derivatives (it names the parameters to differentiate "
+     "with respect to)\n"),
+    (["--lang", "c", "--derivatives", "--symbolic"],
+     "anadyn: error: --derivatives fold the robot file's numbers in, so not with symbolic "
+     "(parameters names those to differentiate with respect to)\n"),
+    (["--lang", "c", "--derivatives", "--parameter", "zz"],
+     "anadyn: error: {rr}: parameters: rr has no parameter or gain 'zz'; its parameters: L1, "
+     "L2, g, m1, m2; its gains: b01, b12, g01, g12, q1f, q2f\n"),
+    (["--lang", "python", "--derivatives", "--parameter", "g", "--parameter", "g"],
+     "anadyn: error: {rr}: parameters: a parameter is named twice\n"),
+])
+def test_cli_bad_derivative_options_are_one_line_and_exit_2(argv, message, tmp_path, capsys,
+                                                             monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    rr = REPO / "robots" / "rr.yaml"
+    assert main(["export", str(rr), *argv]) == 2
+    assert capsys.readouterr().err == message.format(rr=rr)
+    assert not (tmp_path / "results").exists()
+
+
+def test_cli_writes_the_derivatives_beside_the_equations(tmp_path, capsys):
+    assert main(["export", str(REPO / "robots" / "rr.yaml"), "--lang", "python",
+                 "--derivatives", "--parameter", "m2", "--out", str(tmp_path)]) == 0
+    assert "rr_derivatives.py" in capsys.readouterr().out
+    summary = json.loads((tmp_path / "export.json").read_text())
+    assert set(summary["files"]) == {"rr.py", "rr_derivatives.py"}

@@ -32,16 +32,23 @@ def _skew_vector(S):
 
 
 def test_the_registry_is_what_a_robot_file_accepts():
-    assert tuple(JOINT_TYPES) == ROBOT_FILE_TYPES == ("revolute", "prismatic", "fixed")
+    assert tuple(JOINT_TYPES) == ROBOT_FILE_TYPES == ("revolute", "prismatic", "fixed",
+                                                      "spherical")
     for word, kind in JOINT_TYPES.items():
         assert kind.word == word
-        assert kind.coordinates == kind.speeds == (0 if word == "fixed" else 1)
+        assert (kind.coordinates, kind.speeds) == {"fixed": (0, 0), "spherical": (4, 3)}.get(
+            word, (1, 1))
         assert kind.moving == (word != "fixed")
-    assert [JOINT_TYPES[w].unit for w in ROBOT_FILE_TYPES] == ["rad", "m", None]
-    assert [JOINT_TYPES[w].effort_unit for w in ROBOT_FILE_TYPES] == ["N*m", "N", None]
+    assert [JOINT_TYPES[w].unit for w in ROBOT_FILE_TYPES] == ["rad", "m", None, "1"]
+    assert [JOINT_TYPES[w].effort_unit for w in ROBOT_FILE_TYPES] == ["N*m", "N", None, "N*m"]
 
 
-@pytest.mark.parametrize("word", list(JOINT_TYPES))
+#: the types whose one displacement moves along or about an axis, or nothing (the
+#: spherical joint's quaternion: tests/test_spherical.py)
+DISPLACED = [word for word, kind in JOINT_TYPES.items() if not kind.orientation]
+
+
+@pytest.mark.parametrize("word", DISPLACED)
 def test_the_subspace_is_the_velocity_of_the_transform(word):
     """(s, v) = (R_l^T dR_l/dd as a vector, R_l^T do/dd) by central differences of
     ``transform``: the relative spatial velocity per unit speed, in body axes."""
@@ -67,7 +74,7 @@ def test_the_subspace_is_the_velocity_of_the_transform(word):
         assert np.array_equal(R0, C) and np.array_equal(o0, origin)
 
 
-@pytest.mark.parametrize("word", list(JOINT_TYPES))
+@pytest.mark.parametrize("word", DISPLACED)
 def test_the_symbolic_transform_is_the_numeric_one(word):
     """The same ``transform`` on SymPy matrices (as ``symbolic.kinematics`` calls it)
     gives the numbers of the NumPy call."""
@@ -83,9 +90,12 @@ def test_the_symbolic_transform_is_the_numeric_one(word):
 
 
 def test_the_kinematic_equations_are_identity():
-    """dq = W(q) u with W = 1 for every type here (the speeds are the rates)."""
-    for kind in JOINT_TYPES.values():
-        assert kind.coordinate_rates([0.5] * kind.speeds) == [0.5] * kind.speeds
+    """dq = W(q) u with W = 1 for every type but the spherical joint (the speeds are
+    the rates)."""
+    for word in DISPLACED:
+        kind = JOINT_TYPES[word]
+        assert kind.coordinate_rates([0.3] * kind.coordinates,
+                                     [0.5] * kind.speeds) == [0.5] * kind.speeds
 
 
 ONE_JOINT = """\
@@ -127,7 +137,7 @@ def test_the_loader_takes_the_units_from_the_joint_type(word):
 
 def test_the_loader_refuses_a_type_word_outside_the_registry():
     with pytest.raises(ModelError, match=r"joint\.type: must be one of revolute, prismatic, "
-                                         r"fixed, got 'continuous'$"):
+                                         r"fixed, spherical\b.*, got 'continuous'$"):
         robot_from_text(ONE_JOINT.format(word="continuous", extra=""))
 
 

@@ -20,3 +20,4 @@ from .sweep import sweep; COMMANDS = (*COMMANDS, sweep)  # noqa: E402, E702  (on
 from .export import export; from .linearize import linearize; COMMANDS = (*COMMANDS, export, linearize)  # noqa: E402, E702
 from .view import view; COMMANDS = (*COMMANDS, view)  # noqa: E402, E702
 from .optimize import optimize; COMMANDS = (*COMMANDS, optimize)  # noqa: E402, E702
+from .identify import identify; from .excite import excite; COMMANDS = (*COMMANDS, identify, excite)  # noqa: E402, E702

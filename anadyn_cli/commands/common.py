@@ -63,7 +63,10 @@ FLAGS = {"output_step": "--dt", "t_end": "--t-end", "rtol": "--rtol", "atol": "-
          "smoothing_window": "--smoothing-window", "smoothing_order": "--smoothing-order",
          "symbolic": "--symbolic", "goal": "--to", "start": "--from", "objective": "--minimize",
          "duration": "--duration", "intervals": "--intervals",
-         "method": "--method", "vary": "--vary"}
+         "method": "--method", "vary": "--vary", "derivatives": "--derivatives",
+         "parameters": "--parameter"}
+FLAGS.update(holdout="--holdout", period="--period", harmonics="--harmonics", margin="--margin",
+             iterations="--iterations")  # identify, excite
 
 
 def flag_message(setting: str, reason: str) -> str:
@@ -132,6 +135,13 @@ def _usable_out(out: Path | None) -> Path | None:
     return out
 
 
+#: the Savitzky-Golay differentiator of measured positions (``numeric.measured``)
+SmoothingWindowOpt = typer.Option(
+    None, "--smoothing-window",
+    help="Samples of the Savitzky-Golay differentiator that gives the measured motion's "
+         "missing rates and accelerations (odd) [default: 21].")
+SmoothingOrderOpt = typer.Option(
+    None, "--smoothing-order", help="Its polynomial degree (2 to 10) [default: 3].")
 OutOpt = typer.Option(None, "--out", help="Output folder [default: results/NAME/].",
                       callback=_usable_out)
 
@@ -174,7 +184,8 @@ class InertiaPolicy(str, Enum):
 FixBaseOpt = typer.Option(False, "--fix-base",
                           help="URDF: weld the floating or planar joint that carries the root "
                                "link to the world, where its origin puts it (a URDF's root "
-                               "link is fixed to the world in any case).")
+                               "link is fixed to the world in any case); MJCF: weld the free "
+                               "joint of a body on the world body where the body is placed.")
 InertiaOpt = typer.Option(InertiaPolicy.refuse, "--inertia",
                           help="URDF: inertias that no rigid body has (not positive "
                                "semidefinite, or principal moments breaking I1 + I2 >= I3): "
@@ -218,7 +229,7 @@ def with_urdf_options(command):
         options = reading_options(fix_base, inertia, lock)
         robots = kwargs.get("robots") or [kwargs.get("robot")]
         if options.flags() and not any(
-                r is not None and library.resolve(r).suffix.lower() == ".urdf" for r in robots):
+                r is not None and library.imports(library.resolve(r)) for r in robots):
             from ..errors import ModelError
             raise ModelError(f"{options.flags()}: these options say how a URDF file is read; "
                              f"{', '.join(map(str, robots))} is not a URDF file")

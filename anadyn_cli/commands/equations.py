@@ -30,6 +30,10 @@ def equations(
                                     help="Print Kane's generalized active and inertia forces "
                                          "per coordinate (Q_r = Fr, Kin_r = Fr*; "
                                          "Q_r + Kin_r = 0) instead."),
+    base_parameters: bool = typer.Option(False, "--base-parameters",
+                                         help="Print the base parameters (identifiable "
+                                              "combinations of the inertial and drive "
+                                              "parameters) instead."),
 ) -> None:
     """Print the equations of motion, M(q) ddq = F(q, dq) + B(q) tau.
 
@@ -40,6 +44,11 @@ def equations(
     from ..model import load_robot
 
     model = load_robot(robot)
+    if base_parameters:
+        from ..api import base_parameters as base
+
+        typer.echo(base(model).text(model.name))
+        return
     text = text_of(model, formulation.value, fmt.value, symbolic, matrices, energies, kane_terms)
     size = len(text.encode("utf-8"))
     if size > LARGE_OUTPUT:

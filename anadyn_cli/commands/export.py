@@ -34,6 +34,15 @@ def export(
                                        help="Formulation the equations come from."),
     fragment: bool = typer.Option(False, help="LaTeX only: the body without preamble, to "
                                               "\\input in a document that loads amsmath."),
+    derivatives: bool = typer.Option(False, "--derivatives",
+                                     help="c and python: also NAME_derivatives.{h,c} or "
+                                          "NAME_derivatives.py, the forward and inverse "
+                                          "dynamics' derivatives and M^-1, one state or a "
+                                          "batch (the numbers of anadyn.derivatives)."),
+    parameter: list[str] = typer.Option(None, "--parameter",
+                                        help="With --derivatives: also differentiate with "
+                                             "respect to this parameter or gain of the robot "
+                                             "file (repeat for more)."),
 ) -> None:
     """Standalone files for M(q), F(t, q, dq), B(q), the control laws, the state derivative,
     its analytic Jacobian and the inverse dynamics; or a LaTeX document of the equations;
@@ -45,12 +54,14 @@ def export(
     from ..services import export as service
 
     start = time.perf_counter()
-    service.check_options(lang.value, fragment, symbolic)
+    parameters = tuple(parameter or ())
+    service.check_options(lang.value, fragment, symbolic, derivatives, parameters)
     timings: dict = {}
     moment = time.perf_counter()
     model = load_robot(robot)
     timings["load"] = time.perf_counter() - moment
-    result = service.export(model, lang.value, formulation.value, symbolic, fragment, timings)
+    result = service.export(model, lang.value, formulation.value, symbolic, fragment, timings,
+                            derivatives=derivatives, parameters=parameters)
     folder = out if out is not None else Path("results") / model.name / "export" / lang.value
     written = service.write(result, folder)
     exported = result.model

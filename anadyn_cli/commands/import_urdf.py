@@ -1,4 +1,4 @@
-"""anadyn import: a URDF robot as an anadyn robot file."""
+"""anadyn import: a URDF or MJCF (MuJoCo) robot as an anadyn robot file."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -10,34 +10,38 @@ from .common import FixBaseOpt, InertiaOpt, InertiaPolicy, LockOpt, reading_opti
 
 
 def import_urdf(
-    urdf: Path = typer.Argument(..., help="URDF file, or the name of a library robot "
-                                          "(`anadyn robots`).", show_default=False),
+    urdf: Path = typer.Argument(..., help="URDF (.urdf) or MJCF (MuJoCo .xml) file, or the "
+                                          "name of a library robot (`anadyn robots`).",
+                                show_default=False),
     output: Path = typer.Option(None, "-o", "--output",
                                 help="Write the robot file here [default: standard output]."),
     fix_base: bool = FixBaseOpt,
     inertia: InertiaPolicy = InertiaOpt,
     lock: Optional[List[str]] = LockOpt,
 ) -> None:
-    """Import a URDF robot as an anadyn robot file (YAML, with comments).
+    """Import a URDF or MJCF (MuJoCo XML) robot as an anadyn robot file (YAML, with
+    comments).
 
     Links become bodies (links on fixed joints folded into the body they are
     fixed to), revolute, continuous and prismatic joints coordinates with one
     actuator each, <mimic> joints coupled displacements; limits, damping and
-    friction are kept; --lock holds joints at a value (a reduced robot).  Every
-    command also takes the .urdf file directly, with these options.
+    friction are kept; --lock holds joints at a value (a reduced robot).  MJCF:
+    hinge and slide joints, geom inertias, defaults, armature, springs and
+    motor/position/velocity actuators (docs: how-to/mjcf).  Every command also
+    takes the .urdf or .xml file directly, with these options.
     """
     from ..model import library
     from ..model.loader import robot_from_text
-    from ..model.urdf import import_file
     from ..errors import display_name
     from ..errors import ModelError
 
     path = library.resolve(urdf)
     shown = display_name(path)
-    if path.suffix.lower() != ".urdf":
-        raise ModelError("not a URDF file (expected a .urdf file name)", source=shown)
+    if not library.imports(path):
+        raise ModelError("not a URDF or MJCF file (expected a .urdf or .xml file name)",
+                         source=shown)
     options = reading_options(fix_base, inertia, lock)
-    imported = import_file(path, options.fix_base, options.inertia, options.lock)
+    imported = library.import_robot(path, options)
     robot = robot_from_text(imported.text, f"{shown} (imported)")   # what is written loads
     for warning in imported.warnings:
         typer.echo(f"anadyn: warning: {warning}", err=True)
@@ -53,7 +57,7 @@ def import_urdf(
         raise ModelError("is a folder; give the robot file's name, e.g. -o robot.yaml",
                          source=display_name(output))
     if output.exists() and output.resolve() == path.resolve():
-        raise ModelError("is the URDF file itself; give another name, e.g. -o robot.yaml",
+        raise ModelError("is the imported file itself; give another name, e.g. -o robot.yaml",
                          source=display_name(output))
     write_text(output, imported.text)
     typer.echo(f"wrote {display_name(output)} ({summary}) from {shown}")

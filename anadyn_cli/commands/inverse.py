@@ -7,7 +7,8 @@ import typer
 
 from .common import (Evaluator, EvaluatorOpt, FontSizeOpt, Formulation, FormulationOpt, OutOpt,
                      PlotFormat, PlotFormatOpt, RobotArg, SizeOpt, TitleOpt, echo_limits,
-                     echo_table, figure_style, out_dir, prepared_model, time_line)
+                     SmoothingOrderOpt, SmoothingWindowOpt, echo_table, figure_style, out_dir,
+                     prepared_model, time_line)
 
 
 def inverse(
@@ -41,12 +42,8 @@ def inverse(
                                "with the columns of inverse.csv (t, each coordinate, "
                                "optionally d<q> and dd<q>; other columns ignored).",
         dir_okay=False),
-    smoothing_window: int = typer.Option(
-        None, "--smoothing-window",
-        help="Samples of the Savitzky-Golay differentiator that gives --motion's missing "
-             "rates and accelerations (odd) [default: 21]."),
-    smoothing_order: int = typer.Option(
-        None, "--smoothing-order", help="Its polynomial degree (2 to 10) [default: 3]."),
+    smoothing_window: int = SmoothingWindowOpt,
+    smoothing_order: int = SmoothingOrderOpt,
 ) -> None:
     """Efforts tau = B^-1 (M ddq - F) along the file's trajectory, or along a measured
     motion (--motion data.csv): inverse.csv, inverse.png.

@@ -32,6 +32,13 @@ class CoordinateInfo:
 
 
 @dataclass(frozen=True)
+class SpeedInfo:
+    name: str
+    unit: str            # "rad/s" or "m/s"
+    initial: float
+
+
+@dataclass(frozen=True)
 class ActuatorInfo:
     name: str
     unit: str            # "N*m" or "N"
@@ -65,6 +72,9 @@ class RobotInfo:
     has_controller: bool
     name_given: bool = True       # False: the name comes from the file name
     joint_limits: tuple[JointLimitInfo, ...] = ()
+    #: the generalized speeds when some are not coordinate rates (a spherical joint's),
+    #: else () (the speeds are the coordinates' rates)
+    speeds: tuple[SpeedInfo, ...] = ()
 
     @classmethod
     def from_robot(cls, robot) -> "RobotInfo":
@@ -76,10 +86,15 @@ class RobotInfo:
                                                                  .limits.effort))
                             for a in robot.actuators),
             simulation=robot.simulation, has_controller=robot.controller is not None,
-            name_given=robot.name_given, joint_limits=joint_limit_infos(robot))
+            name_given=robot.name_given, joint_limits=joint_limit_infos(robot),
+            speeds=tuple(SpeedInfo(u.name, u.unit, float(u.initial)) for u in robot.speeds)
+            if robot.spherical else ())
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        data = asdict(self)
+        if not self.speeds:              # the rates: stored as before speeds existed
+            del data["speeds"]
+        return data
 
     @classmethod
     def from_dict(cls, data: dict, source: str) -> "RobotInfo":
@@ -91,7 +106,8 @@ class RobotInfo:
                    actuators=tuple(ActuatorInfo(**a) for a in data["actuators"]),
                    simulation=Simulation(**data["simulation"]),
                    has_controller=data["has_controller"], name_given=data["name_given"],
-                   joint_limits=tuple(JointLimitInfo(**j) for j in data.get("joint_limits", ())))
+                   joint_limits=tuple(JointLimitInfo(**j) for j in data.get("joint_limits", ())),
+                   speeds=tuple(SpeedInfo(**u) for u in data.get("speeds", ())))
 
 
 def _float(value) -> float | None:

@@ -3,8 +3,10 @@
 The library is two folders of the source tree, installed as package data
 (pyproject.toml maps them onto ``anadyn_cli/robots`` and ``anadyn_cli/scenes``):
 
-    robots/   the chapter's arms (rr.yaml, rrt.yaml) and real arms as URDF
-              (ur5, panda, so101, ...; their licences beside them)
+    robots/   the chapter's arms (rr.yaml, rrt.yaml), real arms as URDF
+              (ur5, panda, so101, ...) and MuJoCo models as MJCF (cartpole,
+              reacher, hopper: .xml files whose root is <mujoco>), their
+              licences beside them
     configs/  the extreme scenes (every robot file there; batch files such as
               ci.yaml are not robots and are left out)
 
@@ -22,12 +24,13 @@ from pathlib import Path
 import yaml
 
 from .joints import JOINT_TYPES
+from .names import quaternion_names
 
 PACKAGE = Path(__file__).resolve().parents[1]          # anadyn_cli/
 #: (installed package folder, source-tree folder), searched in this order
 FOLDERS = (("robots", "robots"), ("scenes", "configs"))
-SUFFIXES = (".yaml", ".yml", ".urdf")
-#: one-line descriptions of the shipped URDF files (YAML files carry their own)
+SUFFIXES = (".yaml", ".yml", ".urdf", ".xml")
+#: one-line descriptions of the shipped URDF and MJCF files (YAML files carry their own)
 DESCRIPTIONS = {
     "ur5": "Universal Robots UR5, 6-axis industrial arm (URDF, example-robot-data)",
     "panda": "Franka Emika Panda, 7-axis arm with a two-finger gripper, one finger a "
@@ -35,6 +38,9 @@ DESCRIPTIONS = {
     "so101": "SO-101 low-cost 6-axis arm with gripper (URDF, example-robot-data)",
     "double_pendulum": "Double pendulum, two revolute joints (URDF, example-robot-data)",
     "twodofs": "Two-link arm with a rotated base (URDF, example-robot-data)",
+    "cartpole": "Cart-pole, a slide and a hinge, motor on the cart (MJCF, DeepMind Control)",
+    "hopper": "Planar hopper: slides x, z and four hinges, with armature (MJCF, Gymnasium)",
+    "reacher": "Two-link planar reacher, two motors (MJCF, DeepMind Control)",
 }
 _announced: set[str] = set()
 
@@ -62,12 +68,28 @@ def entries() -> dict[str, Path]:
 
 
 def _data(path: Path):
-    """A shipped file's content as plain data (a URDF imported), for the listing."""
-    if path.suffix.lower() == ".urdf":
-        from .urdf import import_file
+    """A shipped file's content as plain data (a URDF or MJCF imported), for the listing."""
+    if imports(path):
+        from .urdf import ReadingOptions
 
-        return import_file(path).data
+        return import_robot(path, ReadingOptions()).data
     return yaml.safe_load(path.read_text(encoding="utf-8"))
+
+
+def imports(path: Path) -> bool:
+    """Whether ``path`` is a file anadyn imports rather than reads: URDF (.urdf) or
+    MJCF (.xml, MuJoCo's format)."""
+    return path.suffix.lower() in (".urdf", ".xml")
+
+
+def import_robot(path: Path, options=None):
+    """``urdf.import_file`` or ``mjcf.import_file`` of ``path`` with the reading
+    options (--fix-base, --inertia, --lock; default: the current ``urdf.READING``)."""
+    from . import mjcf, urdf
+
+    options = urdf.READING.get() if options is None else options
+    importer = urdf.import_file if path.suffix.lower() == ".urdf" else mjcf.import_file
+    return importer(path, options.fix_base, options.inertia, options.lock)
 
 
 def shipped_yaml() -> list[Path]:
@@ -77,9 +99,12 @@ def shipped_yaml() -> list[Path]:
 
 
 def _is_robot(path: Path) -> bool:
-    """URDF files are robots; a YAML file is one when it has ``bodies`` (batch files have ``jobs``)."""
-    if path.suffix.lower() == ".urdf":
-        return True
+    """URDF and MJCF files are robots; a YAML file is one when it has ``bodies`` (batch
+    files have ``jobs``)."""
+    if imports(path):
+        from .mjcf import is_mjcf
+
+        return path.suffix.lower() == ".urdf" or is_mjcf(path)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError):
@@ -95,7 +120,7 @@ def find(name: str) -> Path | None:
 
 def resolve(path: str | Path) -> Path:
     """The file a ROBOT argument names: ``path`` if it exists; for a bare name
-    (no folder part) that does not, NAME.yaml, NAME.yml or NAME.urdf in the current
+    (no folder part) that does not, NAME.yaml, NAME.yml, NAME.urdf or NAME.xml in the current
     folder, else the library robot of that name; else ``path`` unchanged (the caller
     reports it missing).  A local file always wins; whenever a library name could
     be meant, one line on stderr says which file is used."""
@@ -193,5 +218,8 @@ def describe(name: str, path: Path) -> Entry:
     if closing:
         joints += "; " + ", ".join(closing)
     description = DESCRIPTIONS.get(name) or str(data.get("description", "")).strip()
-    return Entry(name, path, len(coordinates) - dependent, joints,
-                 description.splitlines()[0] if description else "")
+    # a spherical joint: 3 degrees of freedom, its quaternion's 4 coordinates aside
+    balls = [quaternion_names(body) for body in data.get("bodies", [])]
+    free = (len(set(coordinates) - {n for names in balls for n in names}) - dependent
+            + 3 * sum(1 for names in balls if names))
+    return Entry(name, path, free, joints, description.splitlines()[0] if description else "")

@@ -27,3 +27,25 @@ def default_name(source: str) -> str:
     if not name or not name[0].isalpha():
         name = ("robot_" + name)[:64]
     return name if name not in RESERVED_NAMES else f"robot_{name}"
+
+
+#: the default names of a spherical joint's quaternion and speeds: <body>_qw ... <body>_wx ...
+QUATERNION = ("qw", "qx", "qy", "qz")
+ANGULAR = ("wx", "wy", "wz")
+#: the joint type words whose coordinates end with a quaternion, and how many come before it
+ORIENTED = {"spherical": 0, "floating": 3}
+
+
+def quaternion_names(body: object) -> list[str]:
+    """The quaternion's coordinates of a body item read from a robot file (any value)
+    when its joint is spherical or floating, given or default, else []: coordinates
+    that no joint takes by default, and that count no degree of freedom apart."""
+    joint = body.get("joint") if isinstance(body, dict) else None
+    word = joint.get("type") if isinstance(joint, dict) else None
+    if not isinstance(word, str) or word not in ORIENTED:
+        return []
+    listed = joint.get("coordinates")
+    if isinstance(listed, list):
+        return [name for name in listed[ORIENTED[word]:] if isinstance(name, str)]
+    name = body.get("name")
+    return [f"{name}_{part}" for part in QUATERNION] if isinstance(name, str) else []

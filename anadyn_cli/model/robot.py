@@ -46,6 +46,20 @@ class Coordinate:
 
 
 @dataclass(frozen=True)
+class Speed:
+    """A generalized speed u: the rate d<q> of a coordinate q (every joint but a
+    spherical one), or a component of a spherical joint's angular velocity relative
+    to its parent, in body axes (rad/s).  State x = [q, u], dq = W(q) u."""
+    name: str
+    initial: sp.Expr          # u(0)
+    unit: str                 # "rad/s" or "m/s"
+
+    @property
+    def symbol(self) -> sp.Symbol:
+        return sp.Symbol(self.name, real=True)
+
+
+@dataclass(frozen=True)
 class Joint:
     """Joint frame = parent frame moved by ``origin`` and turned by ``rpy``
     (R = Rz(yaw) Ry(pitch) Rx(roll)); the body frame is the joint frame turned
@@ -63,6 +77,10 @@ class Joint:
     stiffness: sp.Expr = sp.Integer(0)
     rest: sp.Expr = sp.Integer(0)
     limits: "JointLimits" = field(default_factory=lambda: JointLimits())
+    # a spherical joint: its quaternion's coordinates (qw, qx, qy, qz) and its speeds
+    # (wx, wy, wz); empty for the joints whose speed is the displacement's rate
+    coordinates: tuple[str, ...] = ()
+    speeds: tuple[Speed, ...] = ()
 
     @property
     def joint_type(self) -> JointType:
@@ -174,14 +192,41 @@ class Robot:
     def dq(self) -> tuple[sp.Symbol, ...]:
         return tuple(c.rate_symbol for c in self.coordinates)
 
+    @property
+    def speeds(self) -> tuple[Speed, ...]:
+        """The generalized speeds u, in state order: the rates d<q> of the coordinates
+        that are not a quaternion's (those come first among the coordinates, so rate k
+        is speed k), then each spherical joint's (wx, wy, wz) in body order.  Without
+        spherical joints, exactly the coordinates' rates."""
+        quaternions = {name for b in self.bodies for name in b.joint.coordinates}
+        rates = tuple(Speed(c.rate_symbol.name, c.rate, f"{c.unit}/s")
+                      for c in self.coordinates if c.name not in quaternions)
+        return rates + tuple(u for b in self.bodies for u in b.joint.speeds)
+
+    @property
+    def spherical(self) -> bool:
+        """Whether a joint's speeds are not its coordinates' rates (a spherical joint)."""
+        return any(b.joint.joint_type.orientation for b in self.bodies)
+
+    def refuse_spherical(self, what: str) -> None:
+        """ModelError (one line, exit 2) when the robot has a spherical joint: ``what``
+        (closed forms, derivatives) knows only speeds that are coordinate rates."""
+        if self.spherical:
+            from ..errors import ModelError
+
+            raise ModelError(f"{what} of a robot with a spherical joint are not supported "
+                             "yet (its speeds are not its coordinates' rates); simulate, "
+                             "check and accuracy run it", source=self.source)
+
     def body(self, name: str) -> Body:
         return next(b for b in self.bodies if b.name == name)
 
     def __repr__(self) -> str:
-        """One line: ``<Robot rr: 2 DOF (q1, q2), 2 bodies, 2 actuators; robots/rr.yaml>``."""
+        """One line: ``<Robot rr: 2 DOF (q1, q2), 2 bodies, 2 actuators; robots/rr.yaml>``
+        (the degrees of freedom are the speeds; the coordinates are listed)."""
         names = ", ".join(c.name for c in self.coordinates[:6])
         more = ", ..." if len(self.coordinates) > 6 else ""
-        return (f"<Robot {self.name}: {len(self.coordinates)} DOF ({names}{more}), "
+        return (f"<Robot {self.name}: {len(self.speeds)} DOF ({names}{more}), "
                 f"{len(self.bodies)} bodies, {len(self.actuators)} actuators; {self.source}>")
 
     def _repr_html_(self) -> str:

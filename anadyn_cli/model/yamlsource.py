@@ -13,8 +13,8 @@ def read_text(path: str | Path, quiet: bool = False) -> tuple[str, str]:
     """(text, display name) of a robot or config file; ModelError if unreadable.
 
     A path that does not exist may name a library robot (``library.resolve``);
-    a ``.urdf`` file is imported (``urdf.import_file``, with the current
-    ``urdf.READING`` options: --fix-base, --inertia, --lock) and its text is the
+    a ``.urdf`` file or an MJCF model is imported (``library.import_robot``, with the
+    current ``urdf.READING`` options: --fix-base, --inertia, --lock) and its text is the
     anadyn YAML that ``anadyn import`` writes with them, so caching and validation
     work as for any robot file.  The import's warnings go to stderr unless ``quiet``.
     """
@@ -22,11 +22,8 @@ def read_text(path: str | Path, quiet: bool = False) -> tuple[str, str]:
 
     path = library.resolve(path)
     name = display_name(path)
-    if path.suffix.lower() == ".urdf" and path.exists():
-        from .urdf import READING, import_file
-
-        options = READING.get()
-        imported = import_file(path, options.fix_base, options.inertia, options.lock)
+    if path.exists() and library.imports(path):
+        imported = library.import_robot(path)
         if not quiet:
             for warning in imported.warnings:
                 library.announce(f"warning: {warning}", warning=True)

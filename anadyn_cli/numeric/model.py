@@ -7,10 +7,20 @@ to the integrators (``integrators.integrate``), which get ``problem()``.
 
 Only NumPy is imported here: a robot whose generated source is cached runs
 without importing SymPy.  The source is anadyn's own output (from
-``closed_form.source``), never text from a robot file.  State x = [q, dq]:
+``closed_form.source``), never text from a robot file.  State x = [q, u], the
+coordinates (nq) and the speeds (n; ``Robot.speeds``): u = dq unless the robot has
+a spherical joint, whose speeds are its angular velocity in body axes:
 
-    rhs(t, x)      -> dx/dt = [dq, ddq], M ddq = G = F + B tau(t, q, dq)
-    jacobian(t, x) -> [[0, I], [M^-1 K]],  K = [dG/dq - (dM/dq) ddq | dG/d(dq)]
+    rhs(t, x)      -> dx/dt = [dq = W(q) u, du], M du = G = F + B tau(t, q, u)
+    jacobian(t, x) -> [[0, I], [M^-1 K]],  K = [dG/dq - (dM/dq) du | dG/du]
+                      (with a spherical joint the first rows are R = d(W(q) u)/dx)
+
+W(q) is the identity on the coordinates' rates and each spherical joint's
+dq = 1/2 q (x) (0, w) (``model.joints.Spherical.coordinate_rates``, traced into the
+generated module's ``rates``, which the C library runs too).  Its
+rotation is written for a quaternion of any norm, so the motion does not depend
+on the norm; ``on_manifold`` makes the quaternions of a run's rows unit and
+measures how far the integration took them off.
 """
 from __future__ import annotations
 
@@ -54,7 +64,14 @@ class NumericModel:
         self.formulation = None if self.evaluator == "recursive" else formulation
         self.coordinates: tuple[str, ...] = namespace["COORDINATES"]
         self.effort_names: tuple[str, ...] = namespace["EFFORTS"]
-        self.n = len(self.coordinates)
+        #: the speeds u (``Robot.speeds``): the coordinates' rates d<q> unless the
+        #: module names others (a spherical joint's)
+        self.speeds: tuple[str, ...] = namespace.get(
+            "SPEEDS", tuple("d" + c for c in self.coordinates))
+        #: the coordinate indices of each spherical joint's quaternion
+        self.quaternions: tuple = namespace.get("QUATERNIONS", ())
+        self.n = len(self.speeds)              # speeds: the size of M
+        self.nq = len(self.coordinates)        # coordinates: n, or more with quaternions
         self._accelerations = namespace["accelerations"]
         self._jacobian = namespace.get("dynamics_jacobian")     # None: not generated
         self._efforts = namespace["efforts"]
@@ -64,6 +81,7 @@ class NumericModel:
         self._constant_actuation = namespace.get("CONSTANT_ACTUATION", False)
         self._constant_B: np.ndarray | None = None          # B once, when constant
         self._potential = namespace["potential"]
+        self._rates = namespace.get("rates")        # only with a spherical joint
         self._motion = (PrescribedMotion(*namespace["TRAJECTORY"], namespace["motion"])
                         if "TRAJECTORY" in namespace else None)
         self._motion_error = namespace.get("MOTION_ERROR")
@@ -86,12 +104,35 @@ class NumericModel:
         return self.info.name
 
     def initial_state(self) -> np.ndarray:
-        """x0 = [q(0), dq(0)] from the robot file."""
-        return np.array([c.initial for c in self.info.coordinates]
-                        + [c.rate for c in self.info.coordinates], dtype=float)
+        """x0 = [q(0), u(0)] from the robot file."""
+        speeds = ([u.initial for u in self.info.speeds] if self.info.speeds
+                  else [c.rate for c in self.info.coordinates])
+        return np.array([c.initial for c in self.info.coordinates] + speeds, dtype=float)
 
     def state_names(self) -> tuple[str, ...]:
-        return (*self.coordinates, *("d" + c for c in self.coordinates))
+        return (*self.coordinates, *self.speeds)
+
+    def coordinate_rates(self, x) -> np.ndarray:
+        """dq = W(q) u (nq, ...) at the states x = [q, u] (nq + n, ...)."""
+        x = np.asarray(x, dtype=float)
+        if self._rates is None:
+            return x[self.nq:]
+        with np.errstate(all="ignore"):
+            return np.moveaxis(self._rates(0.0, *x), -1, 0)
+
+    def on_manifold(self, x: np.ndarray) -> tuple[np.ndarray, float]:
+        """(rows ``x`` (N, nq + n) with each quaternion made unit, the largest
+        | |quaternion| - 1 | before): the projection of a run's rows on the unit
+        sphere, and the drift the integrator left (0 without spherical joints)."""
+        drift = 0.0
+        if self.quaternions:
+            x = np.array(x, dtype=float)
+            for coordinates in self.quaternions:
+                index = list(coordinates)
+                norm = np.linalg.norm(x[:, index], axis=1)
+                drift = max(drift, float(np.abs(norm - 1).max(initial=0.0)))
+                x[:, index] /= norm[:, None]
+        return x, drift
 
     def problem(self) -> Problem:
         """The direct dynamics under the control laws, for ``integrators.integrate``."""
@@ -104,16 +145,26 @@ class NumericModel:
 
     def rhs(self, t: float, x: np.ndarray) -> np.ndarray:
         values = x.tolist()
+        if self._rates is not None:
+            return np.array(self._rates(t, *values).tolist() + self._accelerations(t, *values))
         return np.array(values[self.n:] + self._accelerations(t, *values))
 
     def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
-        n = self.n
+        n, nq = self.n, self.nq
         values = x.tolist()
-        J = np.zeros((2 * n, 2 * n))
-        J[:n, n:] = np.eye(n)
-        M, K = self._jacobian(t, *values, *self._accelerations(t, *values))
-        J[n:, :] = np.linalg.solve(M, K)
+        J = np.zeros((nq + n, nq + n))
+        M, K, *R = self._jacobian(t, *values, *self._accelerations(t, *values))
+        self.rate_rows(J, R)
+        J[nq:, :] = np.linalg.solve(M, K)
         return J
+
+    def rate_rows(self, J: np.ndarray, R: list) -> None:
+        """The coordinates' rows of the state Jacobian J: [0, 1] (dq = u), or R =
+        d(W(q) u)/dx from ``dynamics_jacobian`` with a spherical joint."""
+        if R:
+            J[:self.nq] = R[0]
+        else:
+            J[:self.n, self.n:] = np.eye(self.n)
 
     def efforts(self, t, q, dq) -> np.ndarray:
         """Efforts under the control laws; q, dq of shape (n, ...) -> (m, ...)."""
@@ -145,15 +196,15 @@ class NumericModel:
         if not self._constant_actuation:
             return self._actuation(t, *q, *dq)
         if self._constant_B is None:
-            self._constant_B = self._actuation(0.0, *[0.0] * (2 * self.n))
+            self._constant_B = self._actuation(0.0, *[0.0] * (self.nq + self.n))
             self._constant_B.setflags(write=False)
         return self._constant_B
 
     def driven_accelerations(self, t: float, x: np.ndarray, efforts) -> np.ndarray:
         """ddq solving M ddq = F + B e at one state x = [q, dq] for given actuator
         efforts e (numpy.linalg.LinAlgError if M is singular)."""
-        n = self.n
-        M, F, B = self.mfb(t, x[:n], x[n:])
+        nq = self.nq
+        M, F, B = self.mfb(t, x[:nq], x[nq:])
         return np.linalg.solve(M, F + B @ np.asarray(efforts, dtype=float))
 
     @property
@@ -180,8 +231,8 @@ class NumericModel:
     def diagnose(self, x: np.ndarray) -> str:
         """A note when the mass matrix at ``x`` is nearly singular (the usual cause
         of a failed step)."""
-        n = self.n
-        M = self.mfb(0.0, x[:n, None], x[n:, None])[0][0]
+        nq = self.nq
+        M = self.mfb(0.0, x[:nq, None], x[nq:, None])[0][0]
         if not np.isfinite(M).all() or not np.diag(M).all():
             return "; the mass matrix is singular there"
         condition = scaled_condition(M)

@@ -176,8 +176,8 @@ class StabilityReport:
 # ----------------------------------------------------------------------------
 def actuator_power(model: NumericModel, t: float, x: np.ndarray) -> float:
     """P = tau . (B^T dq) = dq . (B tau): the actuators' power at one state."""
-    n = model.n
-    q, dq = x[:n], x[n:]
+    n, nq = model.n, model.nq
+    q, dq = x[:nq], x[nq:]
     tau = np.asarray(model.efforts(t, q, dq), dtype=float).reshape(-1)
     _, _, B = model.mfb(t, q, dq)
     return float(dq @ (np.asarray(B).reshape(n, -1) @ tau))
@@ -186,14 +186,14 @@ def actuator_power(model: NumericModel, t: float, x: np.ndarray) -> float:
 def external_powers(model: NumericModel, t: float, x: np.ndarray) -> np.ndarray:
     """[P_loads, P_dissipated] at one state: the loads' power and the power that joint
     damping and friction dissipate (>= 0)."""
-    n = model.n
-    return np.asarray(model.powers(t, x[:n], x[n:]), dtype=float).reshape(2)
+    nq = model.nq
+    return np.asarray(model.powers(t, x[:nq], x[nq:]), dtype=float).reshape(2)
 
 
 def with_work(model: NumericModel, actuated: bool) -> Problem:
     """The direct dynamics with the actuators' work W as one more state, W' = P; with
     loads or joint forces also their work W_loads and the dissipated energy E_d."""
-    n2 = 2 * model.n
+    n2 = model.nq + model.n
     extra = 3 if model.has_forces else 1
 
     def powers(t, x):
@@ -272,8 +272,8 @@ def mass_conditions(model: NumericModel, t: np.ndarray, x: np.ndarray):
     """(times, raw, scaled) condition numbers of M at up to 20,000 rows."""
     stride = max(1, math.ceil(len(t) / CONDITION_ROWS))
     rows = np.arange(0, len(t), stride)
-    n = model.n
-    q, dq = x[rows, :n].T, x[rows, n:].T
+    n, nq = model.n, model.nq
+    q, dq = x[rows, :nq].T, x[rows, nq:].T
     M = np.asarray(model.mfb(t[rows], q, dq)[0], dtype=float).reshape(len(rows), n, n)
     return t[rows], np.linalg.cond(M), scaled_condition(M)
 
@@ -316,8 +316,8 @@ def check(model: NumericModel, rtol: float | None = None,
     timings["probe"] = time.perf_counter() - start
     start = time.perf_counter()
     cond_t, raw, scaled = mass_conditions(model, grid, x)
-    n = model.n
-    T, V = model.energy(x[:, :n].T, x[:, n:].T)
+    nq = model.nq
+    T, V = model.energy(x[:, :nq].T, x[:, nq:].T)
     T, V = np.asarray(T, dtype=float), np.asarray(V, dtype=float)
     E = T + V
     residual = E - work - E[0]

@@ -35,6 +35,8 @@ from .. import progress
 LANGUAGES = ("python", "c", "matlab", "latex", "casadi", "jax")
 #: languages built from the traced recursive dynamics (no formulation, no symbolic)
 TRACED = ("casadi", "jax")
+#: languages that can carry the derivatives' files (``derivatives``)
+DERIVATIVES = ("c", "python")
 
 
 @dataclass
@@ -46,13 +48,23 @@ class ExportResult:
     timings: dict = field(default_factory=dict)
 
 
-def check_options(lang: str, fragment: bool = False, symbolic: bool = False) -> None:
+def check_options(lang: str, fragment: bool = False, symbolic: bool = False,
+                  derivatives: bool = False, parameters=()) -> None:
     """Refuse impossible combinations before any work (ModelError, exit 2), and
     ``casadi`` without CasADi installed."""
     if lang not in LANGUAGES:
         raise ModelError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
     if fragment and lang != "latex":
         raise SettingError("fragment", f"applies to lang latex only, not {lang}")
+    if derivatives and lang not in DERIVATIVES:
+        raise SettingError("derivatives", f"applies to lang c and python, not {lang}")
+    if derivatives and symbolic:
+        raise SettingError("derivatives", "fold the robot file's numbers in, so not with "
+                                          "symbolic (parameters names those to differentiate "
+                                          "with respect to)")
+    if parameters and not derivatives:
+        raise SettingError("parameters", "needs derivatives (it names the parameters to "
+                                         "differentiate with respect to)")
     if symbolic and lang in TRACED:
         raise SettingError("symbolic", f"applies to python, c, matlab and latex, not {lang}")
     if lang == "casadi":
@@ -61,16 +73,26 @@ def check_options(lang: str, fragment: bool = False, symbolic: bool = False) -> 
 
 
 def export(robot, lang: str, formulation: str = "kane", symbolic: bool = False,
-           fragment: bool = False, timings: dict | None = None, eom=None) -> ExportResult:
+           fragment: bool = False, timings: dict | None = None, eom=None,
+           derivatives: bool = False, parameters=()) -> ExportResult:
     """The files of ``robot``'s equations in ``lang`` (``eom``: equations already derived,
-    with ``symbolic`` parameters or not as asked)."""
+    with ``symbolic`` parameters or not as asked); ``derivatives`` (c, python): also
+    the derivatives' files (``output.export.derivatives``), with respect to the
+    robot file's ``parameters`` too."""
     from ..output.export import c, latex, matlab, python
-    from ..output.export.model import ExportModel
+    from ..output.export import derivatives as derivative_files
+    from ..output.export.model import ExportModel, identifier
     from ..symbolic.formulations import derive
 
-    check_options(lang, fragment, symbolic)
+    check_options(lang, fragment, symbolic, derivatives, parameters)
     refuse_closed_chain(robot, "export")
     timings = {} if timings is None else timings
+    extra = {}
+    if derivatives:             # first: a wrong parameter is refused before the closed forms
+        start = time.perf_counter()
+        with progress.task(f"tracing the derivatives of {robot.name}"):
+            extra = derivative_files.files(robot, identifier(robot.name), lang, parameters)
+        timings["derivatives"] = time.perf_counter() - start
     if lang in TRACED:
         return _traced(robot, lang, timings)
     start = time.perf_counter()
@@ -87,7 +109,7 @@ def export(robot, lang: str, formulation: str = "kane", symbolic: bool = False,
             texts = {"c": c.files, "python": python.files, "matlab": matlab.files}[lang](
                 model, step.note)
     timings["generate"] = time.perf_counter() - start
-    return ExportResult(lang, model, texts, fragment, timings)
+    return ExportResult(lang, model, {**texts, **extra}, fragment, timings)
 
 
 def _traced(robot, lang: str, timings: dict) -> ExportResult:

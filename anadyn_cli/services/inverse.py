@@ -176,6 +176,10 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
     """
     timings = {} if timings is None else timings
     info = model.info
+    if model.quaternions:
+        raise ModelError(f"{info.source}: inverse dynamics of a robot with a spherical joint "
+                         "are not supported yet: a prescribed motion (trajectory or measured) "
+                         "gives coordinates, not a quaternion's path and angular velocity")
     if measured is not None and step is not None:
         raise SettingError("output_step", "does not apply to a measured motion: its efforts "
                                           "are computed at its samples")

@@ -20,9 +20,29 @@ at rest; ``defect`` is the largest collocation residual, ``margins`` the
 smallest distance of every bounded quantity to its bound over the points.
 The file's control laws play no part: the efforts are the unknowns.  Needs
 the optional extra ``casadi``.
+
+For ``simulate`` to track the motion, ``tracking`` writes feedback laws of t, q
+and dq for the optimized robot file: per actuator a on a joint of displacement
+theta_a(q) (linear in q),
+
+    tau_a = u_a(t) - kp_a (theta_a(q) - theta_a(r(t))) - kd_a (dtheta_a - dtheta_a(r, dr))
+
+with u_a the optimized efforts (quadratic on each interval, as the collocation
+assumes) and r(t) the optimized motion (the cubic Hermite interpolant of q and
+dq at the knots); after T, r is the goal and u_a the efforts that hold it at
+rest (least squares with fewer actuators than coordinates), and kp_a = w^2 L_a,
+kd_a = 2 w L_a, L_a = 1 / (A^T M A)_aa (A = M^-1 B: the inertia the actuator
+feels at the start pose), w = ``TRACKING_FREQUENCY``.  The robot file's
+expressions have no table lookup, so u_a + kp_a theta_a(r) + kd_a dtheta_a(r, dr),
+one piecewise cubic in t, is written as a cubic plus truncated powers
+max(t - t_k, 0)^j at the knots and a step (sign(t - T) + 1)/2 at T
+(coefficients to ten digits); a law longer than
+an expression may be (``model.expressions.MAX_LENGTH``: about 25 intervals) is
+not written, and the optimized file says so.
 """
 from __future__ import annotations
 
+import math
 import operator
 from dataclasses import dataclass, field
 from functools import reduce
@@ -41,6 +61,8 @@ OPERATIONS = {"+": operator.add, "*": operator.mul, "**": operator.pow, "sin": "
               "atan2": "atan2", "sinh": "sinh", "cosh": "cosh", "tanh": "tanh", "exp": "exp",
               "log": "log", "Abs": "fabs", "sign": "sign", "Min": "fmin", "Max": "fmax"}
 MAX_INTERVALS = 200
+#: the tracking laws' natural frequency (rad/s), critically damped (``tracking``)
+TRACKING_FREQUENCY = 10.0
 #: the bounds are imposed this much (relative) inside the file's, so that IPOPT's
 #: constraint tolerance never puts a point beyond them
 BACKOFF = 1e-6
@@ -65,6 +87,10 @@ class OptimizeResult:
     defect: float
     goal_error: float                # max |q(T) - goal|, |dq(T)|
     margins: list[dict] = field(default_factory=list)
+    #: the robot file's ``controller`` section that tracks the motion (``tracking``), or
+    #: None and why not
+    controller: dict | None = None
+    no_controller: str = ""
 
     @property
     def duration(self) -> float:
@@ -163,7 +189,8 @@ def optimize(robot, goal: dict | None = None, start: dict | None = None,
             if quantity == "position" and not lower <= float(theta) <= upper:
                 raise ModelError(f"unreachable {label}: {name} = {float(theta):g} is outside "
                                  f"its limits [{lower:g}, {upper:g}]", source=robot.source)
-    fd = export_casadi.functions(trace(robot))["forward_dynamics"]
+    export_casadi_functions = export_casadi.functions(trace(robot))
+    fd = export_casadi_functions["forward_dynamics"]
     opti = ca.Opti()
     points = 2 * intervals + 1
     X = opti.variable(2 * n, points)
@@ -217,7 +244,108 @@ def optimize(robot, goal: dict | None = None, start: dict | None = None,
         max(float(np.max(np.abs(np.array(value(d))))) for d in defects),
         float(max(np.max(np.abs(x[:n, -1] - qf)), np.max(np.abs(x[n:, -1])))))
     result.margins = _margins(ca, info, result)
+    if m:
+        result.controller, result.no_controller = tracking(
+            robot, result, *_inertia_and_hold(export_casadi_functions, q0, qf, m))
     return result
+
+
+def _inertia_and_hold(functions: dict, q0: np.ndarray, qf: np.ndarray, m: int):
+    """1 / (A^T M A)_aa at the start pose, A = M^-1 B = d(ddq)/dtau, and the efforts
+    that hold the goal pose at rest (least squares where fewer than n)."""
+    fd, zero = functions["forward_dynamics"], np.zeros(len(q0))
+
+    def slopes(q):
+        base = np.array(fd(0.0, q, zero, np.zeros(m))).ravel()
+        return base, np.column_stack([np.array(fd(0.0, q, zero, e)).ravel() - base
+                                      for e in np.eye(m)])
+
+    mass = np.array(functions["mass_matrix"](q0)).reshape(len(q0), len(q0))
+    _, A = slopes(q0)
+    base, Af = slopes(qf)
+    return 1.0 / np.diag(A.T @ mass @ A), np.linalg.lstsq(Af, -base, rcond=None)[0]
+
+
+def _power_series(t: np.ndarray, pieces: list[list[float]], final: float) -> list[tuple]:
+    """f(t) for polynomial ``pieces`` (coefficients in t - t_k on [t_k, t_k+1]), f
+    continuous, and the constant ``final`` after t[-1], as (coefficient, knot or None,
+    power) terms: sum c t^j over the first piece, then at each later knot the jumps
+    of the Taylor coefficients, c max(t - t_k, 0)^j, and at t[-1] a step of power 0."""
+    degree = max(len(p) for p in pieces)
+    pieces = [list(p) + [0.0] * (degree - len(p)) for p in pieces]
+    h = np.diff(t)
+    after = pieces[1:] + [[final] + [0.0] * (degree - 1)]
+    terms = [(c, None, j) for j, c in enumerate(pieces[0]) if c]
+    for k, (before, now) in enumerate(zip(pieces, after)):
+        for j in range(0 if k == len(pieces) - 1 else 1, degree):
+            shifted = sum(before[i] * math.comb(i, j) * h[k] ** (i - j) for i in range(j, degree))
+            if now[j] - shifted:
+                terms.append((now[j] - shifted, float(t[k + 1]), j))
+    return terms
+
+
+def _number(value: float) -> str:
+    """A coefficient in a law's text: ten significant digits, no spaces."""
+    return repr(float(f"{value:.10g}"))
+
+
+def _text(terms) -> str:
+    """The robot-file expression of ``_power_series``' terms, compact."""
+    parts = []
+    for c, knot, j in terms:
+        base = "t" if knot is None else f"max(t-{_number(knot)},0)"
+        if knot is not None and j == 0:                # a step at the knot
+            parts.append(f"{_number(c / 2)}*(sign(t-{_number(knot)})+1)")
+            continue
+        parts.append(_number(c) + ("" if j == 0 else f"*{base}" if j == 1 else f"*{base}**{j}"))
+    return "+".join(parts).replace("+-", "-") or "0"
+
+
+def tracking(robot, result: OptimizeResult, inertia: np.ndarray,
+             hold: np.ndarray) -> tuple[dict | None, str]:
+    """The ``controller`` section whose laws track ``result`` (module docstring), and
+    why not (None): an actuator's joint displacement not linear in q, or a law longer
+    than the robot file's expressions may be.  The laws are w_a(t) - kp_a theta_a(q) -
+    kd_a dtheta_a(q, dq), w_a = u_a + kp_a theta_a(r) + kd_a dtheta_a(r, dr) one
+    piecewise cubic in t."""
+    import sympy as sp
+
+    from ..model.expressions import MAX_LENGTH
+
+    t, N = result.t[::2], result.intervals
+    h = np.diff(t)
+    coordinates = robot.coordinates
+    q, dq = result.q[::2], result.dq[::2]
+    c2 = (3 * (q[1:] - q[:-1]) / h[:, None] - 2 * dq[:-1] - dq[1:]) / h[:, None]
+    c3 = (2 * (q[:-1] - q[1:]) / h[:, None] + dq[:-1] + dq[1:]) / h[:, None] ** 2
+    bodies = {b.name: b for b in robot.bodies}
+    w = TRACKING_FREQUENCY
+    laws = {}
+    for a, actuator in enumerate(robot.actuators):
+        theta = bodies[actuator.body].joint.displacement
+        slopes = [sp.diff(theta, c.symbol) for c in coordinates]
+        if any(s.free_symbols for s in slopes):
+            return None, (f"{actuator.name}'s joint displacement {theta} is not linear in "
+                          "the coordinates")
+        A = np.array([float(s) for s in slopes])
+        offset = float(theta.xreplace({c.symbol: 0 for c in coordinates}))
+        kp, kd = w * w * inertia[a], 2 * w * inertia[a]
+        u, mid = result.u[::2, a], result.u[1::2, a]
+        pieces = []
+        for k in range(N):
+            e1 = (4 * mid[k] - 3 * u[k] - u[k + 1]) / h[k]
+            e2 = 2 * (u[k] - 2 * mid[k] + u[k + 1]) / h[k] ** 2
+            r = [A @ q[k] + offset, A @ dq[k], A @ c2[k], A @ c3[k]]      # theta_a(r) on it
+            pieces.append([u[k] + kp * r[0] + kd * r[1], e1 + kp * r[1] + 2 * kd * r[2],
+                           e2 + kp * r[2] + 3 * kd * r[3], kp * r[3]])
+        rate = sum((s * c.rate_symbol for s, c in zip(slopes, coordinates)), sp.Integer(0))
+        final = hold[a] + kp * (A @ q[-1] + offset)
+        laws[actuator.name] = (f"{_text(_power_series(t, pieces, final))}"
+                               f"-{_number(kp)}*({theta})-{_number(kd)}*({rate})")
+        if len(laws[actuator.name]) > MAX_LENGTH:
+            return None, (f"the law of {actuator.name} would be longer than {MAX_LENGTH} "
+                          f"characters (fewer --intervals)")
+    return {"laws": laws}, ""
 
 
 def _margins(ca, info: RobotInfo, result: OptimizeResult) -> list[dict]:
@@ -268,8 +396,15 @@ def robot_file(result: OptimizeResult, robot_text: str) -> str:
 
     data = yaml.safe_load(robot_text)
     data["trajectory"] = section(result)
+    if result.controller is not None:
+        data["controller"] = result.controller
+        laws = ("and, for simulate, control laws that track it (the optimized efforts plus a PD "
+                "on each actuator's joint\n# about the motion, then the efforts that hold the "
+                "goal; see anadyn_cli/services/optimize.py)")
+    else:
+        laws = f"(no tracking laws: {result.no_controller})"
     return (f"# {result.robot} with the motion of anadyn optimize ({result.objective}, "
-            f"{result.status}); every other section as in the original\n"
+            f"{result.status}) {laws};\n# every other section as in the original\n"
             + yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100))
 
 

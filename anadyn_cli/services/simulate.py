@@ -1,9 +1,13 @@
 """Direct dynamics under the robot's feedback laws (passive without a controller).
 
-    x = [q, dq],  dx/dt = [dq, M(q)^-1 (F(q, dq) + B(q) tau(t, q, dq))]
+    x = [q, u],  dx/dt = [W(q) u, M(q)^-1 (F(q, u) + B(q) tau(t, q, u))]
 
-integrated from the coordinates' initial values and rates, with rows at
-t = k * output_step exactly.
+integrated from the coordinates' and speeds' initial values, with rows at
+t = k * output_step exactly.  The speeds u are the coordinates' rates (W = 1)
+unless the robot has a spherical joint (``numeric.model``): then each row's
+quaternion is made unit after the run (the motion does not depend on its norm)
+and the largest distance of the integrated norm from 1 is reported
+(``quaternion_drift`` in simulate.json).
 """
 from __future__ import annotations
 
@@ -27,7 +31,7 @@ from ..numeric import limits
 
 @dataclass
 class SimulationResult(Displayed):
-    """A run; rows are times: ``t`` (N,), ``x`` (N, 2n) = [q, dq], ``efforts`` (N, m)."""
+    """A run; rows are times: ``t`` (N,), ``x`` (N, nq + n) = [q, u], ``efforts`` (N, m)."""
     robot: RobotInfo
     settings: Simulation
     solution: integrators.Solution
@@ -39,6 +43,7 @@ class SimulationResult(Displayed):
     constraints: "constrained.ConstraintRun | None" = None   # drift, multipliers (closed chains)
     limits: list = field(default_factory=list)   # limits.Exceeded: bounds of the file passed
     code: str = ""                        # what computed the RHS (native C, generated Python)
+    quaternion_drift: float | None = None     # max | |q| - 1 | before the rows were made unit
 
     @property
     def t(self) -> np.ndarray:
@@ -75,14 +80,18 @@ def simulate(model: NumericModel, method: str | None = None, rtol: float | None 
     solution = integrators.integrate(problem, model.initial_state(), grid, settings.method,
                                      settings.rtol, settings.atol)
     timings["solve"] = solution.wall
-    n, m = model.n, len(model.info.actuators)
+    if model.quaternions:                    # the rows on the unit sphere, the drift kept
+        solution.x, drift = model.on_manifold(solution.x)
+    n, m = model.nq, len(model.info.actuators)
     q, dq = solution.x[:, :n].T, solution.x[:, n:].T
     efforts = model.efforts(solution.t, q, dq) if m else np.zeros((0, len(solution.t)))
     efforts = np.broadcast_to(efforts, (m, len(solution.t))).T
     result = SimulationResult(model.info, settings, solution, np.array(efforts), timings,
                               formulation=model.formulation, evaluator=model.evaluator,
-                              code=getattr(model, "native_note", "generated Python"))
-    result.limits = limits.check(model.info, solution.t, solution.x[:, :n], solution.x[:, n:],
+                              code=getattr(model, "native_note", "generated Python"),
+                              quaternion_drift=drift if model.quaternions else None)
+    rates = model.coordinate_rates(solution.x.T).T                          # dq = W(q) u
+    result.limits = limits.check(model.info, solution.t, solution.x[:, :n], rates,
                                  result.efforts)
     if constrained.is_constrained(model):       # drift and constraint forces on every row
         result.constraints = model.run_report(solution.t, solution.x)
@@ -95,9 +104,11 @@ def simulate(model: NumericModel, method: str | None = None, rtol: float | None 
 
 
 def columns(result: SimulationResult) -> tuple[list[str], list[np.ndarray]]:
-    """CSV contract: t, coordinates, rates d<name>, actuator efforts."""
+    """CSV contract: t, coordinates, speeds (the rates d<name>, or with a spherical
+    joint the speeds ``Robot.speeds`` names), actuator efforts."""
     names = [c.name for c in result.robot.coordinates]
-    header = ["t", *names, *("d" + n for n in names), *(a.name for a in result.robot.actuators)]
+    speeds = [u.name for u in result.robot.speeds] or ["d" + n for n in names]
+    header = ["t", *names, *speeds, *(a.name for a in result.robot.actuators)]
     data = [result.t, *result.x.T, *result.efforts.T]
     if result.constraints is not None:        # after the contract: multipliers, drift
         extra_header, extra = result.constraints.columns()
@@ -148,7 +159,9 @@ def summary(result: SimulationResult) -> dict:
             **({} if result.estimated_error is None
                else {"estimated_error": result.estimated_error}),
             "limits": limits.summary(result.robot, result.limits),
-            **({} if result.constraints is None else result.constraints.summary())}
+            **({} if result.constraints is None else result.constraints.summary()),
+            **({} if result.quaternion_drift is None
+               else {"quaternion_drift": result.quaternion_drift})}
 
 
 def plot_title(result: SimulationResult) -> str:
@@ -158,10 +171,15 @@ def plot_title(result: SimulationResult) -> str:
 
 
 def _panels(result: SimulationResult, rates: bool = False) -> list:
-    """A panel per coordinate (and rate), efforts grouped by unit."""
+    """A panel per coordinate (and rate, or with a spherical joint a panel per speed
+    after them), efforts grouped by unit."""
     n = len(result.robot.coordinates)
     coordinates = [(c.name, c.unit) for c in result.robot.coordinates]
-    panels = plots.state_panels(coordinates, result.x[:, :n], result.x[:, n:] if rates else None)
+    speeds = result.robot.speeds
+    panels = plots.state_panels(coordinates, result.x[:, :n],
+                                result.x[:, n:] if rates and not speeds else None)
+    if rates and speeds:
+        panels += plots.state_panels([(u.name, u.unit) for u in speeds], result.x[:, n:])
     if result.robot.actuators:
         panels += plots.effort_panels([(a.name, a.unit) for a in result.robot.actuators],
                                       result.efforts)
@@ -173,23 +191,23 @@ def _panels(result: SimulationResult, rates: bool = False) -> list:
 
 def table(result: SimulationResult, max_coordinates: int = 4) -> str:
     """The state at round times over the whole run (about 15 rows whatever the
-    horizon, and the last row), units in the headers; rates only up to
+    horizon, and the last row), units in the headers; rates (or the speeds of a
+    robot with a spherical joint, after the coordinates) only up to
     ``max_coordinates`` coordinates (all of them are in simulate.csv)."""
     coordinates = result.robot.coordinates
     n = len(coordinates)
     rates = n <= max_coordinates
-    headers = ["t (s)"]
-    for c in coordinates:
-        headers.append(f"{c.name} ({c.unit})")
-        if rates:
-            headers.append(f"d{c.name} ({c.unit}/s)")
+    speeds = [(u.name, u.unit) for u in result.robot.speeds] if rates else []
+    # (header, column of x): each coordinate followed by its rate, or the speeds last
+    shown = []
+    for i, c in enumerate(coordinates):
+        shown.append((f"{c.name} ({c.unit})", i))
+        if rates and not speeds:
+            shown.append((f"d{c.name} ({c.unit}/s)", n + i))
+    shown += [(f"{name} ({unit})", n + k) for k, (name, unit) in enumerate(speeds)]
     rows = []
     for k in tables.grid_rows(len(result.t), result.settings.output_step):
         x = result.x[k]
-        row = [tables.time_text(result.t[k])]
-        for i in range(n):
-            row.append(tables.number(x[i]))
-            if rates:
-                row.append(tables.number(x[n + i]))
-        rows.append(row)
-    return tables.render(headers, rows)
+        rows.append([tables.time_text(result.t[k])]
+                    + [tables.number(x[column]) for _, column in shown])
+    return tables.render(["t (s)"] + [header for header, _ in shown], rows)

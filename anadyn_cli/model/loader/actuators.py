@@ -35,9 +35,9 @@ class _Actuators:
                 raise fields["joint"].error(f"unknown body {shown}{hint}; actuators act on "
                                             f"the joint of one of: {', '.join(by_name)}")
             joint = by_name[body_name].joint
-            if not joint.joint_type.moving:
+            if not joint.joint_type.axial:
                 raise fields["joint"].error(f"body {body_name!r} has a {joint.type} joint; "
-                                            f"nothing to drive (actuate a {MOVING_WORDS} joint)")
+                                            f"anadyn drives only a {MOVING_WORDS} joint")
             result.append(Actuator(key, body_name, joint.joint_type.effort_unit))
         return tuple(result)
 
@@ -59,7 +59,7 @@ class _Actuators:
                 self.gain_values[symbol] = value
         t = sp.Symbol("t", real=True)
         names.update(self.q)
-        names.update({"d" + k: sp.Symbol("d" + k, real=True) for k in self.q})
+        names.update(self.speed_names())
         names["t"] = t
         laws_cursor = fields["laws"]
         laws = {}

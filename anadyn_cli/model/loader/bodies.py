@@ -9,8 +9,8 @@ import numpy as np
 import sympy as sp
 
 from ...errors import shorten
-from ..joints import JOINT_TYPES
-from ..names import GROUND
+from ..joints import COMPOUND_TYPES, JOINT_TYPES, Spherical
+from ..names import GROUND, quaternion_names
 from ..robot import Body, Joint, JointLimits
 from ..yamlschema import describe_value as _kind
 from .cursor import Cursor
@@ -21,7 +21,7 @@ from .forces import JOINT_FORCE_KEYS
 # 1000 would take minutes; no published robot comes near (docs/how-to/urdf.md)
 MAX_BODIES = 1000
 #: the joint types that move, for messages: "revolute or prismatic"
-MOVING_WORDS = " or ".join(word for word, kind in JOINT_TYPES.items() if kind.moving)
+MOVING_WORDS = " or ".join(word for word, kind in JOINT_TYPES.items() if kind.axial)
 
 
 class _Bodies:
@@ -43,12 +43,12 @@ class _Bodies:
                     if isinstance(item.value, dict)                     # parent is refused
                     and isinstance(item.value.get("parent"), str)}      # in its own place
         for k, item in enumerate(items):
-            body = self.body(item, iter(defaults.get(k, ())), units, carriers)
-            if body.name in bodies:
-                raise item.child("name", None).error(
-                    f"duplicate body name {body.name!r}; every body needs its own name")
-            bodies[body.name] = body
-            cursors[body.name] = item
+            for body in self.body(item, iter(defaults.get(k, ())), units, carriers):
+                if body.name in bodies:
+                    raise item.child("name", None).error(
+                        f"duplicate body name {body.name!r}; every body needs its own name")
+                bodies[body.name] = body
+                cursors[body.name] = item
         return self.tree_order(bodies, cursors), units, cursors
 
     def claimed_by_displacements(self, items: list[Cursor]) -> set[str]:
@@ -62,6 +62,10 @@ class _Bodies:
             named = set(re.findall(r"[A-Za-z_]\w*", str(text))) & set(self.q)
             if isinstance(text, str) and len(named) == 1:
                 claimed |= named
+            listed = joint.get("coordinates") if _word(joint) in COMPOUND_TYPES else None
+            if isinstance(listed, list):
+                claimed |= {name for name in listed if isinstance(name, str)}
+            claimed |= set(quaternion_names(item.value))
         return claimed
 
     def default_coordinates(self, items: list[Cursor], free: list) -> dict[int, list]:
@@ -115,7 +119,9 @@ class _Bodies:
         return {k: [free[j]] for j, k in enumerate(order) if j < len(free)}
 
     def body(self, item: Cursor, free_coordinates, units: dict[str, str],
-             carriers: set) -> Body:
+             carriers: set) -> list[Body]:
+        """The body, after the massless links of its joint's parts when the joint is
+        compound (``compound``)."""
         fields = item.mapping(("name", "parent", "joint", "mass", "com", "inertia"),
                               required=("name", "joint", "mass"))
         name = fields["name"].identifier("body name")
@@ -125,7 +131,13 @@ class _Bodies:
             if not isinstance(parent, str):
                 raise fields["parent"].error(f"expected 'ground' or a body name, got "
                                              f"{_kind(parent)}")
-        joint = self.joint(fields["joint"], free_coordinates, units)
+        links = []
+        if _word(fields["joint"].value) in COMPOUND_TYPES:
+            *links, (_, parent, joint) = self.compound_bodies(fields, name, parent, units)
+        elif _word(fields["joint"].value) == Spherical.word:
+            joint = self.spherical_joint(fields["joint"], name, units)
+        else:
+            joint = self.joint(fields["joint"], free_coordinates, units)
         mass = self.constant(fields["mass"])
         # massless: a welded body, or a moving one that carries others (a virtual link
         # between joints, as URDF writes ball joints; M's check finds what moves nothing)
@@ -134,13 +146,15 @@ class _Bodies:
             self.positive(fields["mass"], mass, "a mass in kg")
         com = self.constant_vector(fields.get("com"))
         inertia = self.inertia(fields["inertia"]) if "inertia" in fields else sp.zeros(3, 3)
-        return Body(name, parent, joint, mass, com, sp.ImmutableMatrix(inertia))
+        massless = (sp.Integer(0), self.constant_vector(None), sp.ImmutableMatrix.zeros(3, 3))
+        return [*(Body(link, above, part, *massless) for link, above, part in links),
+                Body(name, parent, joint, mass, com, sp.ImmutableMatrix(inertia))]
 
     def joint(self, cursor: Cursor, free_coordinates, units: dict[str, str]) -> Joint:
         fields = cursor.mapping(("type", "axis", "origin", "rpy", "displacement", "limits",
                                  *JOINT_FORCE_KEYS),
                                 required=("type",))
-        word = fields["type"].choice(tuple(JOINT_TYPES))
+        word = fields["type"].choice((*JOINT_TYPES, *COMPOUND_TYPES))
         kind = JOINT_TYPES[word]
         origin = self.constant_vector(fields.get("origin"))
         rpy = self.constant_vector(fields.get("rpy"))
@@ -256,10 +270,16 @@ class _Bodies:
         return name == GROUND
 
 
+def _word(joint: object) -> str | None:
+    """The type word of ``joint`` (a value read from the file), if it has one."""
+    word = joint.get("type") if isinstance(joint, dict) else None
+    return word if isinstance(word, str) else None
+
+
 def _moving(word: object) -> bool:
     """Whether ``word`` (a value read from the file, any type) names a joint type that
     moves: such a joint without a displacement takes a coordinate."""
-    return isinstance(word, str) and word in JOINT_TYPES and JOINT_TYPES[word].moving
+    return isinstance(word, str) and word in JOINT_TYPES and JOINT_TYPES[word].axial
 
 
 def _unit(axis, values) -> tuple[sp.Expr, sp.Expr, sp.Expr]:

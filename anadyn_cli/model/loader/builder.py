@@ -10,17 +10,20 @@ from ..robot import Robot, Simulation, frozen_map
 from .actuators import _Actuators
 from .bodies import _Bodies
 from .checks import _Checks
+from .compound import _Compound
 from .cursor import Cursor
 from .forces import _Forces
 from .motion import _Motion
 from .numbers import _Numbers
+from .spherical import _Spherical
 
-TOP_KEYS = ("name", "description", "parameters", "gravity", "coordinates", "bodies",
-            "actuators", "controller", "loads", "trajectory", "simulation", "loops",
+TOP_KEYS = ("name", "description", "parameters", "gravity", "coordinates", "speeds",
+            "bodies", "actuators", "controller", "loads", "trajectory", "simulation", "loops",
             "constraints")
 
 
-class _RobotBuilder(_Numbers, _Bodies, _Forces, _Checks, _Actuators, _Motion):
+class _RobotBuilder(_Numbers, _Bodies, _Compound, _Spherical, _Forces, _Checks, _Actuators,
+                    _Motion):
     """Validates one file section by section, growing the table of known names."""
 
     def __init__(self, root: Cursor, digest: str, default_name: str,
@@ -64,8 +67,11 @@ class _RobotBuilder(_Numbers, _Bodies, _Forces, _Checks, _Actuators, _Motion):
                                   f"defines: {', '.join(self.definitions) or 'none'})")
         gravity = self.constant_vector(top.get("gravity"))
         coordinate_cursors = self.coordinate_names(top["coordinates"])
+        self.speed_section(top.get("speeds"))
         bodies, units, body_cursors = self.bodies(top["bodies"])
         coordinates = self.coordinates(coordinate_cursors, units)
+        coordinates = self.spherical_state(top, bodies, coordinates, coordinate_cursors,
+                                           body_cursors)
         self.check_displacements(bodies, body_cursors, coordinates)
         actuators = self.actuators(top["actuators"], bodies) if "actuators" in top else ()
         if "controller" in top:

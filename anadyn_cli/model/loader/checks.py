@@ -20,6 +20,7 @@ class _Checks:
         for c in coordinates:
             state[c.symbol] = c.initial
             state[c.rate_symbol] = c.rate
+        state.update(self.speed_initial)          # a spherical joint's speeds
         return state
 
     def defined_at(self, cursor: Cursor, expr: sp.Expr, state: dict, what: str) -> None:
@@ -45,7 +46,7 @@ class _Checks:
         state = self.initial_state(coordinates)
         for body in bodies:
             joint = body.joint
-            if not joint.joint_type.moving:
+            if not joint.joint_type.axial:
                 continue
             joint_value = cursors[body.name].value["joint"]
             cursor = cursors[body.name].child("joint", joint_value)
@@ -59,6 +60,8 @@ class _Checks:
 
     def check_mass_matrix(self, robot: Robot, cursor: Cursor,
                           items: dict[str, Cursor]) -> None:
+        if robot.spherical:      # the check's recursion knows one speed per coordinate;
+            return               # the forward dynamics refuse a singular M (ABA, Cholesky)
         initial = [float(c.initial) for c in robot.coordinates]
         motion = massmatrix.singular_everywhere(robot, initial)
         if motion is None:

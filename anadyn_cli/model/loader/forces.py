@@ -69,7 +69,7 @@ class _Forces:
         ``frame`` (world or body: the axes of the two vectors)."""
         by_name = {b.name: b for b in bodies}
         names = {**self.symbols, **self.q, "t": sp.Symbol("t", real=True)}
-        names.update({"d" + k: sp.Symbol("d" + k, real=True) for k in self.q})
+        names.update(self.speed_names())
         state = self.initial_state(coordinates)
         result = []
         for item in cursor.sequence():

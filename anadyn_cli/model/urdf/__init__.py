@@ -51,14 +51,14 @@ policy), ``tree`` (root, floating joints, tree order, mimics), ``reduce``
 (locks, folding, joints that move no mass), ``emit`` (the YAML text) and
 ``importer`` (the steps in order, ``import_file``, ``link_bodies``, ``place``).
 """
-from .emit import PLAIN_TEXT, render
+from ..robottext import PLAIN_TEXT, SMALLEST, render
 from .frames import IDENTITY, Pose, compose, matrix_rpy, rpy_matrix
 from .importer import (GRAVITY, Imported, LinkBodies, _Importer, import_file, import_urdf,
                        link_bodies, place)
 from .inertia import (PSD_TOLERANCE, TRIANGLE_TOLERANCE, MassProperties, combine,
                       inertia_problem, nearest_valid_moments)
 from .options import INERTIA_POLICIES, READING, ReadingOptions, parse_lock, reading
-from .parse import (DECIMAL, LARGEST, MAX_BYTES, SMALLEST, URDF_TYPES, WELDED, XACRO,
+from .parse import (DECIMAL, LARGEST, MAX_BYTES, URDF_TYPES, WELDED, XACRO,
                     _parse_xml, read_urdf)
 
 __all__ = ["DECIMAL", "GRAVITY", "IDENTITY", "INERTIA_POLICIES", "LARGEST", "MAX_BYTES",

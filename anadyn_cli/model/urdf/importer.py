@@ -9,7 +9,8 @@ from pathlib import Path
 
 from ...errors import display_name
 from ..names import GROUND
-from .emit import _Emit, _Names, _format, render
+from ..robottext import _format, _Names, render
+from .emit import _Emit
 from .frames import Pose
 from .inertia import _InertiaPolicy
 from .options import READING, ReadingOptions

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import re
-import stat
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -14,6 +13,7 @@ from types import MappingProxyType
 import numpy as np
 
 from ...errors import ModelError, display_name
+from ..importing import parse_xml, read_capped
 from ..joints import JOINT_TYPES, Fixed, JointType, Prismatic, Revolute
 from .frames import Pose, rpy_matrix
 from .inertia import MassProperties
@@ -27,7 +27,7 @@ URDF_TYPES = MappingProxyType({
     Prismatic.word: JOINT_TYPES[Prismatic.word], Fixed.word: JOINT_TYPES[Fixed.word],
     "floating": None, "planar": None})
 WELDED = JOINT_TYPES[Fixed.word]
-SMALLEST, LARGEST = 1e-30, 1e30   # anadyn's number range (model.loader); smaller -> 0
+LARGEST = 1e30                    # anadyn's number range (model.loader; robottext.SMALLEST)
 XACRO = ("http://www.ros.org/wiki/xacro", "http://wiki.ros.org/xacro")
 #: a URDF number as its text reads (xs:double's decimal form); Python's float()
 #: would also take "1_0", "infinity" and " nan"
@@ -77,24 +77,7 @@ class _Joint:
 
 def read_urdf(path: str | Path) -> bytes:
     """The file's bytes; ModelError if it is missing, not a regular file or over MAX_BYTES."""
-    path = Path(path)
-    name = display_name(path)
-    try:
-        info = path.stat()
-        if not stat.S_ISREG(info.st_mode):
-            raise ModelError("is not a regular file, expected a URDF file", source=name)
-        if info.st_size > MAX_BYTES:
-            raise ModelError(f"file is {info.st_size} bytes, the limit for URDF is {MAX_BYTES}",
-                             source=name)
-        with path.open("rb") as stream:
-            raw = stream.read(MAX_BYTES + 1)
-    except FileNotFoundError:
-        raise ModelError("no such file", source=name) from None
-    except OSError as err:
-        raise ModelError(f"cannot read: {err.strerror}", source=name) from None
-    if len(raw) > MAX_BYTES:
-        raise ModelError(f"file is over {MAX_BYTES} bytes, the limit for URDF", source=name)
-    return raw
+    return read_capped(Path(path), display_name(path), MAX_BYTES, "URDF", "a URDF file")
 
 
 def _parsed(raw: bytes | str, source: str, options: ReadingOptions):
@@ -109,23 +92,7 @@ def _parsed(raw: bytes | str, source: str, options: ReadingOptions):
 
 
 def _parse_xml(raw: bytes, source: str):
-    import defusedxml
-    from defusedxml import ElementTree
-
-    try:
-        root = ElementTree.fromstring(raw, forbid_dtd=False, forbid_entities=True,
-                                      forbid_external=True)
-    except ElementTree.ParseError as err:
-        line, column = getattr(err, "position", (None, None))
-        reason = str(err).split(":")[0]
-        raise ModelError(f"not well-formed XML: {reason} (column {column})", source=source,
-                         line=line) from None
-    except defusedxml.EntitiesForbidden:
-        raise ModelError("XML entity declarations are refused (entity expansion is a "
-                         "classic attack and no URDF needs it)", source=source) from None
-    except defusedxml.DefusedXmlException as err:
-        raise ModelError(f"refused XML: {type(err).__name__} (external references and "
-                         "entities are not read)", source=source) from None
+    root = parse_xml(raw, source, "URDF")
     if root.tag != "robot":
         raise ModelError(f"the root element is <{root.tag}>, expected <robot>: not a URDF file",
                          source=source)

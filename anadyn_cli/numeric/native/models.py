@@ -70,7 +70,7 @@ class RecursiveModel(NumericModel):
         self._accelerations = self._first_accelerations
         self._jacobian = self._first_jacobian
         self._quick, self._quick_module = quick, None
-        self._n2 = 2 * self.n
+        self._n2 = self.nq + self.n               # the state [q, u]
 
     def scalar(self, name: str):
         """The generated module's scalar function ``name``, compiled on first use."""
@@ -107,7 +107,8 @@ class RecursiveModel(NumericModel):
 
     def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
         n = self.n
-        if self._quick_module is not None:        # C factor and solve around Python's K
+        if self._quick_module is not None and not self.quaternions:   # C factor and solve
+            # around Python's K (the C's ksolve takes the state [q, dq] only)
             factor = _call(self._quick_module.factor, t, x, np.empty(n + self._nfac))
             _, K = self._jacobian(t, *np.asarray(x, dtype=float).tolist(), *factor[:n].tolist())
             J = np.empty((self._n2, self._n2))
@@ -116,7 +117,7 @@ class RecursiveModel(NumericModel):
         order, rows, cols = self._factor_tables
         values = np.asarray(x, dtype=float).tolist()
         ddq, inv, L = self.scalar("factor")(t, *values)
-        _, K = self._jacobian(t, *values, *ddq)
+        _, K, *R = self._jacobian(t, *values, *ddq)
         y = [None] * n
         for i in range(n):
             v = K[order[i]].copy()
@@ -128,10 +129,10 @@ class RecursiveModel(NumericModel):
             for k, e in cols[i]:
                 v = v - L[e] * y[k]
             y[i] = v * inv[i]
-        J = np.zeros((2 * n, 2 * n))
-        J[:n, n:] = np.eye(n)
+        J = np.zeros((self._n2, self._n2))
+        self.rate_rows(J, R)
         for i in range(n):
-            J[n + order[i]] = y[i]
+            J[self.nq + order[i]] = y[i]
         return J
 
     def driven_accelerations(self, t: float, x: np.ndarray, efforts) -> np.ndarray:
@@ -152,12 +153,15 @@ class NativeModel(RecursiveModel):
     raises numpy.linalg.LinAlgError; a non-finite result is returned as is
     (the integrators test every result).  Only the vectorized functions are
     compiled from Python up front; the scalar Python ``dynamics_jacobian``
-    (M and K) is compiled when first asked for."""
+    (M and K) is compiled when first asked for.  The library of a robot with a
+    spherical joint has ``rhs`` and ``acc`` only (no Jacobian, inverse or driven
+    dynamics): those run as in ``RecursiveModel``."""
 
     def __init__(self, info, source: str, formulation: str, module):
         super().__init__(info, source, formulation)
         self.native = module
-        self._rhs_c, self._jac_c, self._acc_c = module.rhs, module.jac, module.acc
+        self._rhs_c, self._acc_c = module.rhs, module.acc
+        self._jac_c = getattr(module, "jac", None)
         self._accelerations = self._native_accelerations
 
     def _native_accelerations(self, t, *state) -> list[float]:
@@ -170,16 +174,22 @@ class NativeModel(RecursiveModel):
         return _call(self._rhs_c, t, x, np.empty(self._n2))
 
     def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        if self._jac_c is None:
+            return super().jacobian(t, x)
         J = np.empty((self._n2, self._n2))
         if self._jac_c(t, np.ascontiguousarray(x, dtype=float), J) == 1:
             raise np.linalg.LinAlgError("mass matrix not positive definite")
         return J
 
     def driven_accelerations(self, t: float, x: np.ndarray, efforts) -> np.ndarray:
+        if self._jac_c is None:
+            return super().driven_accelerations(t, x, efforts)
         return _driven(self.native.driven, t, x, efforts, np.empty(self.n))
 
     def demand(self, t, q, dq, ddq) -> tuple[np.ndarray, np.ndarray]:
         """As ``NumericModel.demand``, M ddq - F by the C kernel over all points."""
+        if self._jac_c is None:
+            return super().demand(t, q, dq, ddq)
         n = self.n
         if np.ndim(t) == 0 and np.ndim(q) == 1:            # one point (the round trip)
             out = np.empty((1, n))

@@ -3,23 +3,25 @@
     v_i = X_i v_p + S_i dtheta_i,  c_i = v_i x S_i dtheta_i,
     IA_i = I_i,  pA_i = v_i x* I_i v_i - f_ext_i;
     leaves to root: U = IA S, D = S^T U, u = tau - S^T pA,
-      Ia = IA - U U^T / D,  pa = pA + Ia c + U u / D,
+      Ia = IA - U D^-1 U^T,  pa = pA + Ia c + U D^-1 u,
       IA_p += X^T Ia X,  pA_p += X^T pa;
     root to leaves: a_i = X_i a_p + c_i (a_0 = (0, -g)),
-      ddtheta_i = (u - U^T a_i) / D,  a_i += S ddtheta_i;
+      ddtheta_i = D^-1 (u - U^T a_i),  a_i += S ddtheta_i;
 
 then ddq = J^-1 (ddtheta - h).  Spatial vectors (angular, linear) at the body
 origin in body axes; a spatial inertia is [[A, B], [B^T, C]] (about the origin:
 A = I_O, B = [h]x, C = m 1); X^T Ia X = T^T (R^T Ia R) T with R = diag(E, E),
 T = [[1, 0], [-[r]x, 1]].  S = (s, v) is the joint's motion subspace
 (``model.joints``), so that with the velocity (w, vo) before the joint's own,
-c = (w x s dtheta, w x v dtheta + vo x s dtheta).
+c = (w x s dtheta, w x v dtheta + vo x s dtheta).  S has one column per joint
+speed: D is 1 x 1 for an axial joint, 3 x 3 for a spherical one (inverted in
+the traced code by its adjugate, its determinant checked positive).
 """
 from __future__ import annotations
 
 from ..ir import ZERO, Ex
-from .spatial import (add, combine, congruence, const_vec, cross, dot, emitv, matTvec, matvec,
-                      project, scale, skew, skew_ex, sub)
+from .spatial import (add, columns, combine, congruence, const_vec, cross, dot, emitv, matTvec,
+                      matvec, project, scale, skew, skew_ex, sub)
 from .tracer import Tracer
 
 
@@ -60,9 +62,11 @@ def _velocities(T: Tracer, rate, external):
             vo = emitv(P, matvec(E, add(vp, cross(wp, r))))
         cw, cv = zero, zero
         if b.joint_type.moving:
-            s, lin = b.joint_type.subspace(const_vec(b.axis))
-            ss = scale(s, rate[b.joint]) if s is not None else None
-            sv = scale(lin, rate[b.joint]) if lin is not None else None
+            cols = list(enumerate(columns(b), start=b.joint))
+            turn = [scale(s, rate[j]) for j, (s, _) in cols if s is not None]
+            slide = [scale(lin, rate[j]) for j, (_, lin) in cols if lin is not None]
+            ss = combine(*turn) if turn else None
+            sv = combine(*slide) if slide else None
             if ss is not None:
                 cw = emitv(P, cross(w, ss))
             cv = emitv(P, combine(cross(vo, ss) if ss is not None else None,
@@ -101,31 +105,56 @@ def _articulated(T: Tracer, tau, c, IA, pA):
         pn, pf = emitv(P, pA[i][0]), emitv(P, pA[i][1])
         cw, cv = c[i]
         if b.joint_type.moving:
-            s, lin = b.joint_type.subspace(const_vec(b.axis))
-            Un = emitv(P, combine(matvec(A, s) if s is not None else None,
-                                  matvec(B, lin) if lin is not None else None))
-            Uf = emitv(P, combine(matTvec(B, s) if s is not None else None,
-                                  matvec(C, lin) if lin is not None else None))
-            D = project(s, lin, Un, Uf)
-            ui = tau[b.joint] - project(s, lin, pn, pf)
-            D = P.check_positive(P.emit(D), "mass matrix not positive definite "
-                                            f"(articulated inertia of {b.name})")
-            di = P.call("recip", D)
-            ui = P.emit(ui)
-            U[i], Dinv[i], u[i] = (Un, Uf), di, ui
+            cols = columns(b)
+            Us = [(emitv(P, combine(matvec(A, s) if s is not None else None,
+                                    matvec(B, lin) if lin is not None else None)),
+                   emitv(P, combine(matTvec(B, s) if s is not None else None,
+                                    matvec(C, lin) if lin is not None else None)))
+                  for s, lin in cols]
+            D = [[project(*cols[a], *Us[c_]) for c_ in range(len(cols))]
+                 for a in range(len(cols))]
+            di = _inverse(P, D, b.name)
+            ui = [P.emit(tau[j] - project(*col, pn, pf))
+                  for j, col in enumerate(cols, start=b.joint)]
+            U[i], Dinv[i], u[i] = Us, di, ui
             if b.parent is None:
                 continue
-            Wn, Wf = emitv(P, scale(Un, di)), emitv(P, scale(Uf, di))
-            A = [[P.emit(A[r_][c_] - Un[r_] * Wn[c_]) for c_ in range(3)] for r_ in range(3)]
-            B = [[P.emit(B[r_][c_] - Un[r_] * Wf[c_]) for c_ in range(3)] for r_ in range(3)]
-            C = [[P.emit(C[r_][c_] - Uf[r_] * Wf[c_]) for c_ in range(3)] for r_ in range(3)]
-            k = P.emit(ui * di)
-            pn = add(pn, matvec(A, cw), matvec(B, cv), scale(Un, k))
-            pf = add(pf, matTvec(B, cw), matvec(C, cv), scale(Uf, k))
+            W = [(emitv(P, combine(*(scale(Us[c_][0], di[c_][a]) for c_ in range(len(cols))))),
+                  emitv(P, combine(*(scale(Us[c_][1], di[c_][a]) for c_ in range(len(cols))))))
+                 for a in range(len(cols))]
+
+            def less(M_, left, right):
+                return [[P.emit(M_[r_][c_] - sum((Us[a][left][r_] * W[a][right][c_]
+                                                  for a in range(len(cols))), ZERO))
+                         for c_ in range(3)] for r_ in range(3)]
+
+            A, B, C = less(A, 0, 0), less(B, 0, 1), less(C, 1, 1)
+            k = [P.emit(sum((ui[c_] * di[a][c_] for c_ in range(len(cols))), ZERO))
+                 for a in range(len(cols))]
+            pn = add(pn, matvec(A, cw), matvec(B, cv),
+                     *(scale(Us[a][0], k[a]) for a in range(len(cols))))
+            pf = add(pf, matTvec(B, cw), matvec(C, cv),
+                     *(scale(Us[a][1], k[a]) for a in range(len(cols))))
         elif b.parent is None:
             continue
         _to_parent(T, i, (A, B, C), emitv(P, pn), emitv(P, pf), IA, pA)
     return U, Dinv, u
+
+
+def _inverse(P, D, name: str) -> list[list[Ex]]:
+    """D^-1 of the articulated inertia D = S^T IA S (1 x 1, or 3 x 3 by its adjugate),
+    entries emitted; the pivot, or the determinant, checked positive."""
+    message = f"mass matrix not positive definite (articulated inertia of {name})"
+    if len(D) == 1:
+        return [[P.call("recip", P.check_positive(P.emit(D[0][0]), message))]]
+    D = [[P.emit(D[min(r_, c_)][max(r_, c_)]) for c_ in range(3)] for r_ in range(3)]
+    cof = [[P.emit(D[(r_ + 1) % 3][(c_ + 1) % 3] * D[(r_ + 2) % 3][(c_ + 2) % 3]
+                   - D[(r_ + 1) % 3][(c_ + 2) % 3] * D[(r_ + 2) % 3][(c_ + 1) % 3])
+            for c_ in range(3)] for r_ in range(3)]
+    det = P.check_positive(P.emit(sum((D[0][c_] * cof[0][c_] for c_ in range(3)), ZERO)),
+                           message)
+    inv = P.call("recip", det)
+    return [[P.emit(cof[c_][r_] * inv) for c_ in range(3)] for r_ in range(3)]
 
 
 def _to_parent(T: Tracer, i: int, inertia, pn, pf, IA, pA) -> None:
@@ -176,13 +205,17 @@ def _accelerations(T: Tracer, c, U, Dinv, u) -> list[Ex]:
             ao = emitv(P, matvec(E, sub(aop, cross(rv, alp))))
         al, ao = emitv(P, add(al, c[i][0])), emitv(P, add(ao, c[i][1]))
         if b.joint_type.moving:
-            Un, Uf = U[i]
-            dd = P.emit((u[i] - dot(Un, al) - dot(Uf, ao)) * Dinv[i])
-            ddtheta[b.joint] = dd
-            s, lin = b.joint_type.subspace(const_vec(b.axis))
-            if s is not None:
-                al = emitv(P, add(al, scale(s, dd)))
-            if lin is not None:
-                ao = emitv(P, add(ao, scale(lin, dd)))
+            cols = columns(b)
+            r = [u[i][c_] - dot(Un, al) - dot(Uf, ao) for c_, (Un, Uf) in enumerate(U[i])]
+            r = [P.emit(x) for x in r] if len(r) > 1 else r
+            dd = [P.emit(sum((r[c_] * Dinv[i][a][c_] for c_ in range(len(r))), ZERO))
+                  for a in range(len(r))]
+            ddtheta[b.joint:b.joint + len(dd)] = dd
+            turn = [scale(s, dd[a]) for a, (s, _) in enumerate(cols) if s is not None]
+            slide = [scale(lin, dd[a]) for a, (_, lin) in enumerate(cols) if lin is not None]
+            if turn:
+                al = emitv(P, add(al, *turn))
+            if slide:
+                ao = emitv(P, add(ao, *slide))
         acc[i] = (al, ao)
     return ddtheta

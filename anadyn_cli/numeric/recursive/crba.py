@@ -6,33 +6,38 @@ the leaves to the root, each moved to its parent's origin with h' = E^T h:
     I_P += E^T I E + m(|r|^2 1 - r r^T) + 2 (r.h') 1 - r h'^T - h' r^T
     h_P += h' + m r,   m_P += m
 
-Then for joint i with motion subspace (s, v) (``model.joints``), the spatial
-force F = I_i S_i = (I s + h x v, m v + s x h) is carried to each ancestor j by
-n <- E^T n + r x E^T f, f <- E^T f, and H_ij = S_j^T F = s_j . n + v_j . f.
-Entries for bodies on different branches are structurally zero.
+Then for joint speed i with motion subspace column (s, v) (``model.joints``),
+the spatial force F = I_i S_i = (I s + h x v, m v + s x h) gives H_ik = S_k^T F
+for the body's own earlier columns k (a spherical joint's three), and is carried
+to each ancestor j by n <- E^T n + r x E^T f, f <- E^T f, with H_ij = S_j^T F =
+s_j . n + v_j . f for each of its columns.  Entries for bodies on different
+branches are structurally zero.
 """
 from __future__ import annotations
 
 from ..ir import ZERO, Ex
-from .spatial import add, combine, const_vec, cross, dot, emitv, matTvec, matvec, project, scale
+from .spatial import (add, columns, combine, const_vec, cross, dot, emitv, matTvec, matvec,
+                      project, scale)
 from .tracer import Tracer
 
 
 def joint_mass_matrix(T: Tracer) -> dict[tuple[int, int], Ex]:
-    """H_ij (moving joints i >= j in body order; absent = structural zero)."""
+    """H_ij (joint speeds i >= j in body order; absent = structural zero)."""
     P, plan = T.P, T.plan
     frames = T.frames()
     comp = _composites(T)
     H: dict[tuple[int, int], Ex] = {}
-    for i in plan.moving:
+    for row, i in enumerate(plan.moving):
         b = plan.bodies[i]
         m, h, I = comp[i]
-        s, v = b.joint_type.subspace(const_vec(b.axis))
+        own = columns(b)
+        s, v = own[row - b.joint]
         Fn = emitv(P, combine(matvec(I, s) if s is not None else None,
                               cross(h, v) if v is not None else None))
         Ff = emitv(P, combine(cross(s, h) if s is not None else None,
                               scale(v, m) if v is not None else None))
-        H[b.joint, b.joint] = P.emit(project(s, v, Fn, Ff))
+        for k in range(b.joint, row + 1):
+            H[row, k] = P.emit(project(*own[k - b.joint], Fn, Ff))
         j = i
         while plan.bodies[j].parent is not None:
             E, rv = frames[j]
@@ -40,9 +45,8 @@ def joint_mass_matrix(T: Tracer) -> dict[tuple[int, int], Ex]:
             Fn = emitv(P, add(matTvec(E, Fn), cross(rv, Ff)))
             j = plan.bodies[j].parent
             bj = plan.bodies[j]
-            if bj.joint_type.moving:
-                H[b.joint, bj.joint] = P.emit(project(*bj.joint_type.subspace(
-                    const_vec(bj.axis)), Fn, Ff))
+            for k, column in enumerate(columns(bj), start=bj.joint or 0):
+                H[row, k] = P.emit(project(*column, Fn, Ff))
     return H
 
 

@@ -77,17 +77,22 @@ DOCS = {
                         "(vectorized).",
     "actuation": "B of M ddq = F + B tau (vectorized).",
     "potential": "Potential energy V of gravity and joint springs (vectorized).",
+    "rates": "The coordinates' rates dq = W(q) u (a spherical joint's quaternion: "
+             "1/2 q (x) (0, w); vectorized).",
+    "powers": "[power of the loads, power dissipated by joint damping and friction], W "
+              "(recursive velocities; vectorized).",
 }
 
-VECTORIZED = {"efforts", "mfb", "inverse_dynamics", "actuation", "potential"}
+VECTORIZED = {"efforts", "mfb", "inverse_dynamics", "actuation", "potential", "rates",
+              "powers"}
 
 
 def module_source(gen: Generated, header: str = "") -> str:
     """Python source with COORDINATES, EFFORTS and the six functions."""
     pl = gen.plan
     names = {f"_q{k}": c for k, c in enumerate(pl.coordinates)}
-    names.update({f"_u{k}": "d" + c for k, c in enumerate(pl.coordinates)})
-    names.update({f"_w{k}": "dd" + c for k, c in enumerate(pl.coordinates)})
+    names.update({f"_u{k}": u for k, u in enumerate(pl.speeds)})
+    names.update({f"_w{k}": "d" + u for k, u in enumerate(pl.speeds)})
     names.update({f"_e{k}": e for k, e in enumerate(pl.efforts)})
     names["_t"] = "t"
     lines = [f"# {line}" for line in header.splitlines()] + [PY_HEADER, VEC_HEADER]
@@ -110,7 +115,15 @@ def module_source(gen: Generated, header: str = "") -> str:
     lines.append(f"CONSTANT_ACTUATION = {all(x.constant() is not None for row in B for x in row)}")
     lines.append(f"COORDINATES = {tuple(pl.coordinates)!r}")
     lines.append(f"EFFORTS = {tuple(pl.efforts)!r}")
+    if pl.spherical:          # speeds that are not rates: x = [q, u], dq = W(q) u
+        lines.append(f"SPEEDS = {tuple(pl.speeds)!r}")
+        lines.append(f"QUATERNIONS = {quaternions(pl)!r}")
     return "\n".join(lines) + "\n"
+
+
+def quaternions(pl) -> tuple:
+    """The coordinate indices of each spherical joint's quaternion (qw, qx, qy, qz)."""
+    return tuple(tuple(b.quaternion) for b in pl.bodies if b.quaternion)
 
 
 def source(robot: Robot) -> str:

@@ -1,10 +1,18 @@
 """The robot with its numbers folded in, in the internal symbols the recursions
-trace: _t, _q{k} (coordinates), _u{k} (their rates), _w{k} (accelerations).
+trace: _t, _q{k} (coordinates), _u{k} (speeds), _w{k} (speed rates).
 
-Per moving joint, its displacement theta(q), the rows of J = d(theta)/dq and
-the Hessian term h = dq^T (d^2 theta/dq^2) dq, so that
+The speeds u are the coordinates' rates dq for every joint but a spherical one,
+whose three speeds are its angular velocity in body axes (``model.joints``,
+``Robot.speeds``); a quaternion's coordinates come after the others, so that
+speed k < nq - 4 * (spherical joints) is the rate of coordinate k.
 
-    dtheta = J dq,    ddtheta = J ddq + h.
+Per joint speed (one per axial joint, three per spherical joint): its
+displacement theta(q) (0 for a spherical joint's), the rows of J = d(theta)/du
+and the Hessian term h = u^T (d^2 theta/dq^2) u, so that
+
+    dtheta = J u,    ddtheta = J du + h
+
+(a spherical joint's rows are unit rows, its h zero).
 
 Mass properties about the body origin: m, h = m c, I_O = I_c + m(|c|^2 1 - c c^T).
 """
@@ -34,8 +42,10 @@ class BodyPlan:
     h: list[float]                   # m c
     com: list[float]
     I_O: list[list[float]]           # inertia about the origin, body axes
-    joint: int | None                # index among the moving joints
+    joint: int | None                # index of its first joint speed (``Plan.moving``)
     displacement: sp.Expr | None     # in internal coordinate symbols
+    quaternion: list[int] | None = None   # a spherical joint's coordinates (indices)
+    speed: int | None = None              # ... and the index of its first speed
     damping: float = 0.0
     friction: float = 0.0
     friction_velocity: float = 0.01
@@ -54,13 +64,14 @@ class LoadPlan:
 
 @dataclass
 class Plan:
-    """The robot with numbers folded, in internal symbols: _t, _q{k}, _u{k} (rates),
-    _w{k} (accelerations)."""
+    """The robot with numbers folded, in internal symbols: _t, _q{k}, _u{k} (speeds),
+    _w{k} (their rates)."""
     robot_name: str
     coordinates: tuple[str, ...]
+    speeds: tuple[str, ...]                 # ``Robot.speeds``: d<q> for most joints
     efforts: tuple[str, ...]
     bodies: list[BodyPlan]
-    moving: list[int]                       # body index of each moving joint
+    moving: list[int]                       # body index of each joint speed
     gravity: list[float]
     actuator_joint: list[int]               # moving-joint index of each actuator
     laws: list[sp.Expr]                     # tau_k(t, q, dq) (zeros without controller)
@@ -68,16 +79,32 @@ class Plan:
 
     @property
     def n(self) -> int:
+        """The number of speeds: the size of M, u and du."""
+        return len(self.speeds)
+
+    @property
+    def nq(self) -> int:
+        """The number of coordinates (n, or more with spherical joints)."""
         return len(self.coordinates)
 
+    @property
+    def spherical(self) -> bool:
+        """Whether some speeds are not coordinate rates (nq != n)."""
+        return any(b.quaternion for b in self.bodies)
+
     def joint_expressions(self):
-        """Per moving joint: theta(q), dtheta/dq (one entry per coordinate) and
-        h = dq^T (d^2 theta/dq^2) dq, as SymPy expressions (computed once)."""
+        """Per joint speed: theta(q), dtheta/du (one entry per speed) and
+        h = u^T (d^2 theta/dq^2) u, as SymPy expressions (computed once)."""
         if not hasattr(self, "_joint_expressions"):
             qs = [sp.Symbol(f"_q{k}", real=True) for k in range(self.n)]
             us = [sp.Symbol(f"_u{k}", real=True) for k in range(self.n)]
             out = []
-            for b in self.moving:
+            for j, b in enumerate(self.moving):
+                if self.bodies[b].quaternion is not None:
+                    speed = self.bodies[b].speed + j - self.bodies[b].joint
+                    out.append((sp.Integer(0), [sp.Integer(int(k == speed))
+                                                for k in range(self.n)], sp.Integer(0)))
+                    continue
                 d = self.bodies[b].displacement
                 present = d.free_symbols
                 grad = [sp.diff(d, qk) if qk in present else sp.Integer(0) for qk in qs]
@@ -100,7 +127,11 @@ def plan(robot: Robot) -> Plan:
     internal = {}
     for k, c in enumerate(robot.coordinates):
         internal[c.symbol] = sp.Symbol(f"_q{k}", real=True)
-        internal[c.rate_symbol] = sp.Symbol(f"_u{k}", real=True)
+    speeds = robot.speeds
+    for k, u in enumerate(speeds):
+        internal[u.symbol] = sp.Symbol(f"_u{k}", real=True)
+    coordinate_index = {c.name: k for k, c in enumerate(robot.coordinates)}
+    speed_index = {u.name: k for k, u in enumerate(speeds)}
     internal[sp.Symbol("t", real=True)] = sp.Symbol("_t", real=True)
 
     def expr(e):
@@ -123,7 +154,7 @@ def plan(robot: Robot) -> Plan:
         j_index = None
         if kind.moving:
             j_index = len(moving)
-            moving.append(len(bodies))
+            moving += [len(bodies)] * kind.speeds
         bodies.append(BodyPlan(
             name=body.name, parent=parent, joint_type=kind,
             axis=[_num(expr(a)) for a in joint.axis], C=Cf,
@@ -135,7 +166,9 @@ def plan(robot: Robot) -> Plan:
             friction=_num(expr(getattr(joint, "friction", 0))),
             friction_velocity=_num(expr(getattr(joint, "friction_velocity", 0.01))),
             stiffness=_num(expr(getattr(joint, "stiffness", 0))),
-            rest=_num(expr(getattr(joint, "rest", 0)))))
+            rest=_num(expr(getattr(joint, "rest", 0))),
+            quaternion=[coordinate_index[c] for c in joint.coordinates] or None,
+            speed=speed_index[joint.speeds[0].name] if joint.speeds else None))
     joint_of_body = {b: j for j, b in enumerate(moving)}
     actuator_joint = [joint_of_body[index[a.body]] for a in robot.actuators]
     if robot.controller is None:
@@ -148,6 +181,7 @@ def plan(robot: Robot) -> Plan:
                       [expr(m) for m in ld.torque], ld.frame)
              for ld in getattr(robot, "loads", ())]
     return Plan(robot_name=robot.name, coordinates=tuple(c.name for c in robot.coordinates),
+                speeds=tuple(u.name for u in speeds),
                 efforts=tuple(a.name for a in robot.actuators), bodies=bodies, moving=moving,
                 gravity=[_num(expr(g)) for g in robot.gravity], actuator_joint=actuator_joint,
                 laws=laws, loads=loads)

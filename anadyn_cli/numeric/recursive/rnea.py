@@ -4,7 +4,8 @@
 
 in body axes, with classical accelerations of the origin and gravity as the base
 acceleration a_0 = -g.  Forward pass, root to leaves, with (s, v) the joint's
-motion subspace (``model.joints``; (a, -) revolute, (-, a) prismatic):
+motion subspace (``model.joints``; (a, -) revolute, (-, a) prismatic, three
+columns (e_k, -) spherical: sums over the columns, constant in body axes):
 
     w_i  = E w_p [+ s dtheta]
     al_i = E al_p [+ s ddtheta + (E w_p) x s dtheta]
@@ -22,7 +23,7 @@ n_p += E^T n_i + r x E^T f_i.
 from __future__ import annotations
 
 from ..ir import ZERO, Ex
-from .spatial import add, const_vec, cross, emitv, matTvec, matvec, project, scale, sub
+from .spatial import add, columns, const_vec, cross, emitv, matTvec, matvec, project, scale, sub
 from .tracer import Tracer
 
 
@@ -65,12 +66,16 @@ def _forward(T: Tracer, rate: list[Ex], acc: list[Ex]) -> list[list]:
         ao_i = matvec(E, a_lin)
         al_i = matvec(E, alp)
         w_i = wr
-        s, v = b.joint_type.subspace(const_vec(b.axis))
-        if s is not None:
-            w_i = add(wr, scale(s, rate[b.joint]))
-            al_i = add(al_i, scale(s, acc[b.joint]), scale(cross(wr, s), rate[b.joint]))
-        if v is not None:
-            ao_i = add(ao_i, scale(v, acc[b.joint]), scale(cross(wr, v), rate[b.joint] * 2.0))
+        cols = list(enumerate(columns(b), start=b.joint or 0))
+        turn = [(s, j) for j, (s, _) in cols if s is not None]
+        slide = [(v, j) for j, (_, v) in cols if v is not None]
+        if turn:
+            w_i = add(wr, *(scale(s, rate[j]) for s, j in turn))
+            al_i = add(al_i, *(scale(s, acc[j]) for s, j in turn),
+                       *(scale(cross(wr, s), rate[j]) for s, j in turn))
+        if slide:
+            ao_i = add(ao_i, *(scale(v, acc[j]) for v, j in slide),
+                       *(scale(cross(wr, v), rate[j] * 2.0) for v, j in slide))
         w_i, al_i, ao_i = emitv(P, w_i), emitv(P, al_i), emitv(P, ao_i)
         w.append(w_i), al.append(al_i), ao.append(ao_i)
         h = const_vec(b.h)
@@ -95,8 +100,8 @@ def _backward(T: Tracer, forces: list[list]) -> list[Ex]:
     for i in reversed(range(len(plan.bodies))):
         b = plan.bodies[i]
         f, nn = emitv(P, forces[i][0]), emitv(P, forces[i][1])
-        if b.joint_type.moving:
-            tau[b.joint] = P.emit(project(*b.joint_type.subspace(const_vec(b.axis)), nn, f))
+        for j, (s, v) in enumerate(columns(b), start=b.joint or 0):
+            tau[j] = P.emit(project(s, v, nn, f))
         if b.parent is not None:
             E, r = frames[i]
             fp = emitv(P, matTvec(E, f))

@@ -91,6 +91,13 @@ def combine(*parts: Vec | None) -> Vec:
     return present[0] if len(present) == 1 else add(*present)
 
 
+def columns(body) -> list[tuple[Vec | None, Vec | None]]:
+    """The motion subspace S of ``body``'s joint (a ``plan.BodyPlan``), one (angular,
+    linear) pair of Ex vectors per joint speed (``joints.JointType.columns``)."""
+    return [(None if s is None else const_vec(s), None if v is None else const_vec(v))
+            for s, v in body.joint_type.columns(body.axis)]
+
+
 def project(angular: Vec | None, linear: Vec | None, n: Vec, f: Vec) -> Ex:
     """S^T (n, f) = angular . n + linear . f, the parts present."""
     if linear is None:

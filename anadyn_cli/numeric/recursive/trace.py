@@ -16,6 +16,7 @@ from .crba import mass_matrix
 from .factor import Factor, cholesky, solve
 from .plan import Plan, plan
 from .potential import potential
+from .power import powers
 from .rnea import inverse_dynamics
 from .tracer import Tracer
 
@@ -43,8 +44,9 @@ def _finish(name, args, P, outputs) -> Traced:
     return Traced(name, args, statements, outputs, count(statements, _flat(outputs)))
 
 
-def state_args(n: int) -> list[str]:
-    return ["_t"] + [f"_q{k}" for k in range(n)] + [f"_u{k}" for k in range(n)]
+def state_args(pl: Plan) -> list[str]:
+    """t, the coordinates (nq), the speeds (n)."""
+    return ["_t"] + [f"_q{k}" for k in range(pl.nq)] + [f"_u{k}" for k in range(pl.n)]
 
 
 def trace_accelerations(pl: Plan, with_factor: bool = False):
@@ -60,7 +62,7 @@ def trace_accelerations(pl: Plan, with_factor: bool = False):
     if with_factor:
         outputs["inv"] = fac.inv
         outputs["L"] = [fac.L[key] for key in sorted(fac.L)]
-    traced = _finish("accelerations", state_args(pl.n), P, outputs)
+    traced = _finish("accelerations", state_args(pl), P, outputs)
     return (traced, fac) if with_factor else traced
 
 
@@ -76,7 +78,7 @@ def trace_driven(pl: Plan) -> Traced:
         M = mass_matrix(T)
         G = [P.emit(-x) for x in inverse_dynamics(T, None, actuators=True)]
         ddq = solve(P, cholesky(P, M), G)
-    return _finish("driven_accelerations", state_args(pl.n) + [f"_e{k}" for k in range(m)],
+    return _finish("driven_accelerations", state_args(pl) + [f"_e{k}" for k in range(m)],
                    P, {"ddq": ddq})
 
 
@@ -87,28 +89,36 @@ def trace_aba(pl: Plan) -> Traced | None:
         ddq = aba.accelerations(Tracer(pl, P))
     if ddq is None:
         return None
-    return _finish("accelerations", state_args(pl.n), P, {"ddq": ddq})
+    return _finish("accelerations", state_args(pl), P, {"ddq": ddq})
 
 
 def trace_jacobian(pl: Plan, with_M: bool = True) -> Traced:
-    """M and K = -dID/d[q, dq] at fixed ddq (actuators included), forward mode
-    (``with_M`` False: K alone, for native code that reuses the factor of M)."""
-    n = pl.n
+    """M and K = -dID/d[q, u] at fixed du (actuators included), forward mode
+    (``with_M`` False: K alone, for native code that reuses the factor of M); with a
+    spherical joint also R = d(W(q) u)/d[q, u], the coordinates' rows of the state
+    Jacobian (without, they are [0, 1])."""
+    n, nq = pl.n, pl.nq
     P = Program()
     with P:
         T = Tracer(pl, P)
         M = mass_matrix(T) if with_M else None
         ddq = [Ex.atom(f"_w{k}") for k in range(n)]
         res = inverse_dynamics(T, ddq, actuators=True)
-        seeds = {f"_q{k}": k for k in range(n)}
-        seeds.update({f"_u{k}": n + k for k in range(n)})
+        rates = _rates(pl, P) if pl.spherical else []
+        seeds = {f"_q{k}": k for k in range(nq)}
+        seeds.update({f"_u{k}": nq + k for k in range(n)})
         D = P.derivatives(seeds)
         K = []
         for r in range(n):
             d = P.derivative_of(res[r], D)
-            K.append([P.emit(-d[k]) if k in d else ZERO for k in range(2 * n)])
-    return _finish("dynamics_jacobian", state_args(n) + [f"_w{k}" for k in range(n)], P,
-                   {"M": M, "K": K} if with_M else {"K": K})
+            K.append([P.emit(-d[k]) if k in d else ZERO for k in range(nq + n)])
+        R = []
+        for value in rates:
+            d = P.derivative_of(value, D)
+            R.append([P.emit(d[k]) if k in d else ZERO for k in range(nq + n)])
+    outputs = {"M": M, "K": K} if with_M else {"K": K}
+    return _finish("dynamics_jacobian", state_args(pl) + [f"_w{k}" for k in range(n)], P,
+                   {**outputs, "R": R} if R else outputs)
 
 
 def trace_mfb(pl: Plan) -> Traced:
@@ -120,7 +130,7 @@ def trace_mfb(pl: Plan) -> Traced:
         F = [P.emit(-x) for x in inverse_dynamics(T, None, actuators=False)]
         _, rows, _ = T.joint_maps()
         B = [[rows[j][r] for j in pl.actuator_joint] for r in range(n)]
-    return _finish("mfb", state_args(n), P, {"M": M, "F": F, "B": B})
+    return _finish("mfb", state_args(pl), P, {"M": M, "F": F, "B": B})
 
 
 def trace_inverse(pl: Plan) -> Traced:
@@ -129,7 +139,7 @@ def trace_inverse(pl: Plan) -> Traced:
     with P:
         T = Tracer(pl, P)
         res = inverse_dynamics(T, [Ex.atom(f"_w{k}") for k in range(n)], actuators=False)
-    return _finish("inverse_dynamics", state_args(n) + [f"_w{k}" for k in range(n)], P,
+    return _finish("inverse_dynamics", state_args(pl) + [f"_w{k}" for k in range(n)], P,
                    {"ID": res})
 
 
@@ -142,21 +152,56 @@ def trace_actuation(pl: Plan) -> Traced:
     with P:
         _, rows, _ = Tracer(pl, P).joint_maps()
         B = [[rows[j][r] for j in pl.actuator_joint] for r in range(n)]
-    return _finish("actuation", state_args(n), P, {"B": B})
+    return _finish("actuation", state_args(pl), P, {"B": B})
+
+
+def _rates(pl: Plan, P: Program) -> list[Ex]:
+    """dq = W(q) u: the speeds for the coordinates whose rates they are (the first
+    ones), each spherical joint's kinematic differential equations for its
+    quaternion (``joints.Spherical.coordinate_rates``)."""
+    q = [Ex.atom(f"_q{k}") for k in range(pl.nq)]
+    u = [Ex.atom(f"_u{k}") for k in range(pl.n)]
+    rates = list(u[:pl.nq - 4 * sum(1 for b in pl.bodies if b.quaternion)])
+    for b in pl.bodies:
+        if b.quaternion:
+            rates += [P.emit(x) for x in b.joint_type.coordinate_rates(
+                [q[k] for k in b.quaternion], u[b.speed:b.speed + 3])]
+    return rates
+
+
+def trace_rates(pl: Plan) -> Traced:
+    """dq = W(q) u (``_rates``)."""
+    P = Program()
+    with P:
+        rates = _rates(pl, P)
+    return _finish("rates", state_args(pl), P, {"dq": rates})
+
+
+def _spherical(pl: Plan) -> dict[str, Traced]:
+    """What a robot with a spherical joint adds: its coordinates' rates and, with
+    loads or joint damping or friction, their powers (for ``check``; the other robots
+    take them from the kinematics' closed forms, ``closed_form.forces_source``)."""
+    functions = {"rates": trace_rates(pl)}
+    if pl.loads or any(b.damping or b.friction for b in pl.bodies):
+        P = Program()
+        with P:
+            power = powers(Tracer(pl, P))
+        functions["powers"] = _finish("powers", state_args(pl), P, {"P": power})
+    return functions
 
 
 def trace_efforts(pl: Plan) -> Traced:
     P = Program()
     with P:
         tau = Tracer(pl, P).efforts()
-    return _finish("efforts", state_args(pl.n), P, {"tau": tau})
+    return _finish("efforts", state_args(pl), P, {"tau": tau})
 
 
 def trace_potential(pl: Plan) -> Traced:
     P = Program()
     with P:
         V = potential(Tracer(pl, P))
-    return _finish("potential", [f"_q{k}" for k in range(pl.n)], P, {"V": [V]})
+    return _finish("potential", [f"_q{k}" for k in range(pl.nq)], P, {"V": [V]})
 
 
 @dataclass
@@ -187,15 +232,16 @@ def forward(pl: Plan) -> Generated:
 
 
 def complete(gen: Generated) -> Generated:
-    """``gen`` (from ``forward``) with the Jacobian, the driven accelerations,
-    M F B, the efforts, the inverse dynamics, the actuation matrix and the
-    potential."""
+    """``gen`` (from ``forward``) with the Jacobian, the driven accelerations, M F B,
+    the efforts, the inverse dynamics, the actuation matrix, the potential and, with a
+    spherical joint, the coordinates' rates dq = W(q) u and the powers (``_spherical``)."""
     pl = gen.plan
     functions = {**gen.functions, "dynamics_jacobian": trace_jacobian(pl),
                  "driven_accelerations": trace_driven(pl), "mfb": trace_mfb(pl),
                  "efforts": trace_efforts(pl),
                  "inverse_dynamics": trace_inverse(pl), "actuation": trace_actuation(pl),
-                 "potential": trace_potential(pl)}
+                 "potential": trace_potential(pl),
+                 **(_spherical(pl) if pl.spherical else {})}
     return Generated(pl, functions, gen.factor)
 
 

@@ -9,6 +9,8 @@ axes and r_i its origin in parent axes, from its joint type's transform
 
     E_i = Rot(a, theta)^T C^T   where the joint turns (revolute), else C^T
     r_i = origin [+ C a theta]  where the joint slides (prismatic)
+    E_i = R(q)^T C^T            for a spherical joint's quaternion q (any norm:
+                                R(q) = (|q|^2 R)(q) / |q|^2, ``joints.Spherical``)
 
 with C = Rz Ry Rx of rpy.  Joint efforts, with tau_passive_j =
 -damping dtheta - friction tanh(dtheta / friction_velocity) - stiffness (theta - rest).
@@ -28,7 +30,7 @@ class Tracer:
 
     def __init__(self, plan: Plan, P: Program):
         self.plan, self.P = plan, P
-        self.dq = [Ex.atom(f"_u{k}") for k in range(plan.n)]     # the coordinate rates
+        self.dq = [Ex.atom(f"_u{k}") for k in range(plan.n)]     # the speeds
         self._frames = None
         self._joint = None
         #: the actuators' efforts as inputs (atoms _e0, _e1, ...) instead of their laws
@@ -48,7 +50,7 @@ class Tracer:
         return self._joint
 
     def joint_rates(self, rates: list[Ex]) -> list[Ex]:
-        """dtheta = J rates."""
+        """dtheta = J rates (J: joint speeds from the speeds u)."""
         _, rows, _ = self.joint_maps()
         return [self.P.emit(sum((row[k] * rates[k] for k in range(self.plan.n)), ZERO))
                 for row in rows]
@@ -77,13 +79,13 @@ class Tracer:
             for b in self.plan.bodies:
                 CT = [[Ex.const(b.C[j][i]) for j in range(3)] for i in range(3)]
                 r = const_vec(b.origin)
+                if b.quaternion is not None:
+                    out.append((self._turned(self._quaternion_transpose(b), CT, b), r))
+                    continue
                 turn, slide = b.joint_type.subspace(b.axis)
                 E = CT
                 if turn is not None:
-                    RT = rotation_transpose(P, turn, theta[b.joint])
-                    E = RT if b.C_identity else [
-                        [P.emit(sum((RT[i][k] * CT[k][j] for k in range(3)), ZERO))
-                         for j in range(3)] for i in range(3)]
+                    E = self._turned(rotation_transpose(P, turn, theta[b.joint]), CT, b)
                 if slide is not None:
                     Ca = [sum(b.C[i][k] * slide[k] for k in range(3)) for i in range(3)]
                     th = theta[b.joint]
@@ -91,6 +93,20 @@ class Tracer:
                 out.append((E, r))
             self._frames = out
         return self._frames
+
+    def _turned(self, RT, CT, b):
+        """RT C^T (RT when C is the identity), entries emitted."""
+        return RT if b.C_identity else [
+            [self.P.emit(sum((RT[i][k] * CT[k][j] for k in range(3)), ZERO))
+             for j in range(3)] for i in range(3)]
+
+    def _quaternion_transpose(self, b):
+        """R(q)^T of a spherical joint's quaternion atoms (entries emitted)."""
+        P = self.P
+        q = [Ex.atom(f"_q{k}") for k in b.quaternion]
+        scaled = b.joint_type.rotation(*q)                    # |q|^2 R(q)
+        inverse = P.call("recip", P.emit(sum((x * x for x in q), ZERO)))
+        return [[P.emit(scaled[j][i] * inverse) for j in range(3)] for i in range(3)]
 
     def to_body(self, vec: Vec, i: int) -> Vec:
         """A world-axes vector in body i's axes (E of every body on the way)."""

@@ -31,6 +31,7 @@ def derive(robot: Robot, formulation: str = "kane", symbolic: bool = False,
                          f"{', '.join(FORMULATIONS)}")
     from ... import progress
 
+    robot.refuse_spherical("symbolic equations (Kane, Lagrange)")
     with progress.task(f"deriving {formulation} equations of {robot.name}"):
         eom = FORMULATIONS[formulation](robot, kinematics.build(robot, symbolic=symbolic))
     if tidy and fits([*eom.M, *eom.F, *eom.B]):
