@@ -59,7 +59,9 @@ def derive(robot, formulation: str = "kane", symbolic: bool = False):
     """
     from .symbolic.formulations import derive as derive_equations
 
-    return derive_equations(load(robot), formulation, symbolic=symbolic)
+    model = load(robot)
+    model.refuse_contacts("symbolic equations (derive, equations)")
+    return derive_equations(model, formulation, symbolic=symbolic)
 
 
 def equations(robot, formulation: str = "kane", fmt: str = "text", symbolic: bool = False,

@@ -38,7 +38,7 @@ FUNCTIONS = ("abs, acos, asin, atan, atan2, cos, cosh, exp, log, max, min, sign,
              "sqrt, tan, tanh")
 ONLY = f"use numbers, names, + - * / ** and the functions {FUNCTIONS}"
 TOP = ("name, description, parameters, gravity, coordinates, speeds, bodies, actuators, "
-       "controller, loads, trajectory, simulation, loops, constraints")
+       "controller, loads, trajectory, simulation, loops, constraints, contacts")
 RR_PARAMETERS = "L1, L2, g, m1, m2, pi"          # what a constant of rr.yaml may use
 
 
@@ -184,7 +184,7 @@ CASES = [
     case("type-joint-kind", rr("{type: revolute, axis: [0, 0, 1], displacement: q1}",
                                "{type: hinge, axis: [0, 0, 1], displacement: q1}"),
          "{file}:14: bodies[0].joint.type: must be one of revolute, prismatic, fixed, "
-         "spherical, planar, universal, cylindrical, helical, got 'hinge'"),
+         "spherical, planar, universal, cylindrical, helical, floating, got 'hinge'"),
     case("type-name-number", rr("name: rr", "name: 5"),
          "{file}:4: name: robot name must be a letter followed by up to 63 letters, digits or "
          "underscores, got 5"),

@@ -38,11 +38,19 @@ def test_ci_config_covers_every_shipped_robot_with_every_command():
     judged = ("simulate", "inverse", "compare", "accuracy", "check")   # what ci.yaml judges
     # MJCF robots (robots/*.xml: no trajectory) are judged by compare and check at least
     mjcf = {str(p.relative_to(ROOT)) for p in (ROOT / "robots").glob("*.xml")}
-    # a spherical joint has no closed forms (compare) nor prescribed motions (inverse) yet
-    spherical = {"robots/spherical_pendulum.yaml", "robots/tumbling_box.yaml"}
-    assert covered - {(c, r) for c in judged for r in mjcf} == {
+    # scenes in robots' subfolders (contact/, drives/, ...) are judged as their pages say
+    scenes = {(c, r) for c, r in covered if r.count("/") > 1}
+    # a spherical joint (a floating base too) has no prescribed motions (inverse) yet;
+    # the closed forms of the free robots of example-robot-data (18 and 35 speeds with a
+    # quaternion) take minutes to derive: their recursive path is checked against
+    # Pinocchio in tests/test_floating.py, and Kane = Lagrange on the smaller ones here
+    spherical = {f"robots/{name}.yaml" for name in (
+        "spherical_pendulum", "tumbling_box", "satellite", "space_robot", "solo12_free",
+        "g1_free")}
+    large = {f"robots/{name}.yaml" for name in ("solo12_free", "g1_free")}
+    assert covered - scenes - {(c, r) for c in judged for r in mjcf} == {
         (c, r) for c in judged for r in robots
-        if r not in spherical or c not in ("compare", "inverse")}
+        if not (r in spherical and c == "inverse") and not (r in large and c == "compare")}
     assert {(c, r) for c in ("compare", "check") for r in mjcf} <= covered
     assert all(j.expect.paths for j in plan.jobs if j.expect.exit_code == 0)
 
@@ -209,8 +217,8 @@ jobs:
      "2: jobs[0].options: '--' is set by the batch (before the robot); leave it out"),
     ("jobs:\n  - {command: import, robot: RR, options: {output: x.yaml}}\n",
      "2: jobs[0].options: --output is set by the batch (OUT/<command>/<name>/); leave it out"),
-    ("jobs:\n  - {command: simulate, robot: no_such_robot}\n",
-     "2: jobs[0].robot: no such file 'TMP/no_such_robot' (robot paths are relative to the "
+    ("jobs:\n  - {command: simulate, robot: qqqq}\n",
+     "2: jobs[0].robot: no such file 'TMP/qqqq' (robot paths are relative to the "
      "batch file's folder) and no library robot of that name; `anadyn robots` lists the "
      "library"),
 ])

@@ -18,6 +18,7 @@ import pytest
 from anadyn_cli import robot_from_text
 from anadyn_cli.cli import main
 from anadyn_cli.numeric import recursive
+from pinocchio_mapped import check_mapped, rel
 
 pin = pytest.importorskip("pinocchio")
 
@@ -58,11 +59,6 @@ def pin_chain(base_joint) -> pin.Model:
     return model
 
 
-def rel(a, b) -> float:
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    return float(np.max(np.abs(a - b)) / max(1.0, np.max(np.abs(b))))
-
-
 def generated(text: str) -> dict:
     namespace: dict = {}
     exec(compile(recursive.source(robot_from_text(text, "compound.yaml")), "<test>", "exec"),
@@ -70,23 +66,11 @@ def generated(text: str) -> dict:
     return namespace
 
 
-def check(ns, model, n, to_pin, seed=0, count=20):
-    """``to_pin(q, u, du)`` -> (q_pin, v_pin, a_pin, J, Jdot_u) with v_pin = J u and
-    a_pin = J du + Jdot_u: anadyn's M = J^T M_pin J, its inverse dynamics J^T tau_pin
-    and its accelerations J^-1 (a_pin - Jdot_u)."""
-    data = model.createData()
-    rng = np.random.default_rng(seed)
-    for _ in range(count):
-        q, u, du = rng.uniform(-1.5, 1.5, n), rng.uniform(-2, 2, n), rng.uniform(-3, 3, n)
-        qp, vp, ap, J, bias = to_pin(q, u, du)
-        Mp = pin.crba(model, data, qp)
-        Mp = np.triu(Mp) + np.triu(Mp, 1).T
-        M, F, _ = ns["mfb"](0.0, *q, *u)
-        assert rel(M, J.T @ Mp @ J) < 1e-9
-        tau = J.T @ pin.rnea(model, data, qp, vp, ap)
-        assert rel(ns["inverse_dynamics"](0.0, *q, *u, *du), tau) < 1e-9
-        free = pin.aba(model, data, qp, vp, np.zeros(model.nv))
-        assert rel(ns["accelerations"](0.0, *q, *u), np.linalg.solve(J, free - bias)) < 1e-9
+def check(ns, model, n, to_pin):
+    """``to_pin(q, u, du)`` -> (q_pin, v_pin, a_pin, J, Jdot_u) (``pinocchio_mapped``)."""
+    def draw(rng):
+        return rng.uniform(-1.5, 1.5, n), rng.uniform(-2, 2, n), rng.uniform(-3, 3, n)
+    assert check_mapped(pin, ns, model, draw, to_pin) == 20
 
 
 def test_planar_matches_pinocchios_planar_joint():

@@ -217,8 +217,8 @@ def test_library_has_the_mjcf_robots(capsys):
 
 def test_fix_base_welds_a_free_joint(tmp_path, capsys):
     path = _write(tmp_path, FREE)
-    assert main(["import", str(path)]) == 2
-    assert "joint 'root': a free joint (6 degrees of freedom)" in capsys.readouterr().err
+    assert main(["import", str(path)]) == 0
+    assert "type: floating" in capsys.readouterr().out         # free: anadyn's floating
     assert main(["import", "--fix-base", str(path)]) == 0
     text = capsys.readouterr().out
     assert "displacement: hinge" in text and "rootz" not in text
@@ -258,7 +258,7 @@ BAD = {
                         "<include file=\"../outside.xml\">: outside the model's folder"),
     "not mujoco": ("<robot name='r'/>", "the root element is <robot>, expected <mujoco>"),
     "joint type": (_arm('type="screw"'), "type=\"screw\": expected free, ball, slide or hinge"),
-    "ball": (_arm('type="ball"'), "a ball joint (3 rotations): anadyn has no spherical joints"),
+    "ball": (_arm('type="ball" damping="1"'), 'damping="1" on a ball joint: not imported'),
     "number": (_arm('damping="1_0"'), "damping=\"1_0\": '1_0' is not a decimal number"),
     "nan": (_arm('axis="0 nan 1"'), "axis=\"0 nan 1\": numbers must be finite"),
     "count": (_arm('pos="0 1"'), "pos=\"0 1\": expected 3 numbers, got 2"),
@@ -351,3 +351,74 @@ def test_urdf_options_are_refused_for_mjcf(capsys):
     assert capsys.readouterr().err == (
         f"anadyn: error: {path}: --lock: this option says how a URDF file is read; MJCF "
         "models are imported whole, their impossible inertias refused\n")
+
+
+FREE_BALL = """<mujoco model="freeball">
+  <worldbody>
+    <body name="torso" pos="0.1 0.2 1.0" quat="0.9 0.1 0.3 0.2">
+      <freejoint name="root"/>
+      <geom type="box" size="0.2 0.1 0.05" mass="3"/>
+      <body name="upper" pos="0.2 0 0" euler="10 20 30">
+        <joint name="shoulder" type="ball" pos="0.05 0 0.02"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1"/>
+        <body name="lower" pos="0.3 0 0">
+          <joint name="elbow" type="hinge" axis="0 1 0" damping="0.3"/>
+          <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.025" mass="0.6"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_free_and_ball_joints_agree_with_mujoco(tmp_path):
+    """A free joint imports as anadyn's floating joint, a ball joint as its spherical
+    one, with MuJoCo's conventions (qpos: position and quaternion (w, x, y, z); qvel:
+    the velocity in the world and the angular velocity in body axes), so the two
+    states map one to one by name: M (mj_fullM) and F (qfrc_passive - qfrc_bias) at
+    20 random states to 1e-9, and the free body starts where MuJoCo places it."""
+    from anadyn_cli.numeric.build import numeric_model
+
+    path = tmp_path / "freeball.xml"
+    path.write_text(FREE_BALL)
+    imported = import_file(path)
+    robot = robot_from_text(imported.text, str(path))
+    model = mujoco.MjModel.from_xml_string(FREE_BALL)
+    data = mujoco.MjData(model)
+    names, speeds = [c.name for c in robot.coordinates], [u.name for u in robot.speeds]
+    q_at, u_at = [], []                   # anadyn index of each qpos / qvel entry
+    for j in range(model.njnt):
+        name = model.joint(j).name
+        kind = model.jnt_type[j]
+        if kind == mujoco.mjtJoint.mjJNT_FREE:
+            q_at += [names.index(f"{name}_{p}") for p in ("x", "y", "z", "qw", "qx", "qy", "qz")]
+            u_at += [speeds.index(f"d{name}_{p}") for p in "xyz"]
+            u_at += [speeds.index(f"{name}_w{p}") for p in "xyz"]
+        elif kind == mujoco.mjtJoint.mjJNT_BALL:
+            q_at += [names.index(f"{name}_q{p}") for p in "wxyz"]
+            u_at += [speeds.index(f"{name}_w{p}") for p in "xyz"]
+        else:
+            q_at.append(names.index(name))
+            u_at.append(speeds.index("d" + name))
+    start = np.array([float(c.initial) for c in robot.coordinates])
+    assert _relative(start[q_at], model.qpos0) < 1e-12          # placed as MuJoCo places it
+    numeric = numeric_model(robot, evaluator="recursive")
+    rng = np.random.default_rng(7)
+    for _ in range(STATES):
+        qpos = model.qpos0 + rng.uniform(-1, 1, model.nq)
+        for j in range(model.njnt):
+            kind, adr = model.jnt_type[j], model.jnt_qposadr[j]
+            first = {mujoco.mjtJoint.mjJNT_FREE: 3, mujoco.mjtJoint.mjJNT_BALL: 0}.get(kind)
+            if first is not None:
+                qpos[adr + first:adr + first + 4] /= np.linalg.norm(qpos[adr + first:adr + first + 4])
+        qvel = rng.normal(0, 2, model.nv)
+        data.qpos[:], data.qvel[:] = qpos, qvel
+        mujoco.mj_forward(model, data)
+        M_mj = np.zeros((model.nv, model.nv))
+        mujoco.mj_fullM(model, data, M_mj)
+        q, u = np.empty(len(names)), np.empty(len(speeds))
+        q[q_at], u[u_at] = qpos, qvel
+        M, F, _ = (np.array(a, dtype=float) for a in numeric.mfb(0.0, q, u))
+        assert _relative(M[np.ix_(u_at, u_at)], M_mj) < TOLERANCE
+        assert _relative(F.ravel()[u_at], data.qfrc_passive - data.qfrc_bias) < TOLERANCE

@@ -527,11 +527,6 @@ BAD = {
                                          r"not a URDF file"),
     "xacro": ("<robot xmlns:xacro='http://www.ros.org/wiki/xacro'><xacro:property name='a' "
               "value='1'/></robot>", r"{f}: a xacro file .*expand it first.*"),
-    "floating": (_arm(type="floating"),
-                 r"{f}: joint 'j1': floating joints \(several degrees of freedom in one joint\) "
-                 r"cannot be imported; to simulate the robot on a fixed base, import it with "
-                 r"--fix-base \(welds link 'l1' to 'base' where the joint's origin puts it\)"),
-    "planar": (_arm(type="planar"), r"{f}: joint 'j1': planar joints .* --fix-base .*"),
     "ball": (_arm(type="ball"), r"{f}: joint 'j1': type 'ball' is not a URDF joint type; "
                                 r"expected revolute, continuous, prismatic, fixed, floating or "
                                 r"planar"),

@@ -186,6 +186,12 @@ FixBaseOpt = typer.Option(False, "--fix-base",
                                "link to the world, where its origin puts it (a URDF's root "
                                "link is fixed to the world in any case); MJCF: weld the free "
                                "joint of a body on the world body where the body is placed.")
+FloatingBaseOpt = typer.Option(False, "--floating-base",
+                               help="URDF: free the root link: a floating joint between the "
+                                    "world and it (x, y, z, a unit quaternion; speeds dx, dy, "
+                                    "dz in the world frame and the angular velocity in body "
+                                    "axes), as Pinocchio's free-flyer root; without it the "
+                                    "root link is fixed to the world, as URDF says.")
 InertiaOpt = typer.Option(InertiaPolicy.refuse, "--inertia",
                           help="URDF: inertias that no rigid body has (not positive "
                                "semidefinite, or principal moments breaking I1 + I2 >= I3): "
@@ -197,16 +203,19 @@ LockOpt = typer.Option(None, "--lock", metavar="JOINT=VALUE",
                             "expression such as pi/4): a reduced robot, the joint's child "
                             "folded into the body before it (repeatable).")
 #: parameter -> (type, option) of the URDF reading options (``model.urdf.ReadingOptions``)
-URDF_OPTIONS = {"fix_base": (bool, FixBaseOpt), "inertia": (InertiaPolicy, InertiaOpt),
-                "lock": (Optional[List[str]], LockOpt)}
+URDF_OPTIONS = {"fix_base": (bool, FixBaseOpt), "floating_base": (bool, FloatingBaseOpt),
+                "inertia": (InertiaPolicy, InertiaOpt), "lock": (Optional[List[str]], LockOpt)}
 
 
-def reading_options(fix_base: bool, inertia: InertiaPolicy, lock: list[str] | None):
-    """The ``urdf.ReadingOptions`` of --fix-base, --inertia and the --lock texts."""
+def reading_options(fix_base: bool, inertia: InertiaPolicy, lock: list[str] | None,
+                    floating_base: bool = False):
+    """The ``urdf.ReadingOptions`` of --fix-base, --inertia, the --lock texts and
+    --floating-base."""
     from ..model import urdf
 
     return urdf.ReadingOptions(fix_base, inertia.value,
-                               tuple(urdf.parse_lock(text) for text in lock or ()))
+                               tuple(urdf.parse_lock(text) for text in lock or ()),
+                               floating_base)
 
 
 def with_urdf_options(command):
@@ -223,10 +232,11 @@ def with_urdf_options(command):
         return command
 
     @functools.wraps(command)
-    def run(*args, fix_base=False, inertia=InertiaPolicy.refuse, lock=None, **kwargs):
+    def run(*args, fix_base=False, floating_base=False, inertia=InertiaPolicy.refuse,
+            lock=None, **kwargs):
         from ..model import library, urdf
 
-        options = reading_options(fix_base, inertia, lock)
+        options = reading_options(fix_base, inertia, lock, floating_base)
         robots = kwargs.get("robots") or [kwargs.get("robot")]
         if options.flags() and not any(
                 r is not None and library.imports(library.resolve(r)) for r in robots):

@@ -46,13 +46,14 @@ def compare(
 
     start = time.perf_counter()
     models = [load_robot(p) for p in robot_files(robots)]
-    if not robots:          # every shipped robot but those whose closed forms do not exist yet
+    if not robots:          # every shipped robot but those with a spherical joint
         from ..model.library import announce
 
         left = [m.name for m in models if m.spherical]
         models = [m for m in models if not m.spherical]
         if left:
-            announce(f"left out (a spherical joint: no closed forms yet): {', '.join(left)}")
+            announce(f"left out (a spherical joint: name them to compare them; a floating "
+                     f"base's closed forms are large): {', '.join(left)}")
     result = service.compare(models, samples=samples, seed=seed, rtol=tol,
                              trajectory_tol=trajectory_tol, symbolic_terms=symbolic_terms,
                              t_end=t_end, use_cache=cache)

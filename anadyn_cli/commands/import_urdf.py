@@ -6,7 +6,8 @@ from typing import List, Optional
 
 import typer
 
-from .common import FixBaseOpt, InertiaOpt, InertiaPolicy, LockOpt, reading_options
+from .common import (FixBaseOpt, FloatingBaseOpt, InertiaOpt, InertiaPolicy, LockOpt,
+                     reading_options)
 
 
 def import_urdf(
@@ -16,6 +17,7 @@ def import_urdf(
     output: Path = typer.Option(None, "-o", "--output",
                                 help="Write the robot file here [default: standard output]."),
     fix_base: bool = FixBaseOpt,
+    floating_base: bool = FloatingBaseOpt,
     inertia: InertiaPolicy = InertiaOpt,
     lock: Optional[List[str]] = LockOpt,
 ) -> None:
@@ -24,8 +26,10 @@ def import_urdf(
 
     Links become bodies (links on fixed joints folded into the body they are
     fixed to), revolute, continuous and prismatic joints coordinates with one
-    actuator each, <mimic> joints coupled displacements; limits, damping and
-    friction are kept; --lock holds joints at a value (a reduced robot).  MJCF:
+    actuator each, floating and planar joints anadyn's of the same names (no
+    actuator), <mimic> joints coupled displacements; limits, damping and friction
+    are kept; --lock holds joints at a value (a reduced robot); --floating-base
+    frees the root link, which a URDF fixes to the world.  MJCF:
     hinge and slide joints, geom inertias, defaults, armature, springs and
     motor/position/velocity actuators (docs: how-to/mjcf).  Every command also
     takes the .urdf or .xml file directly, with these options.
@@ -40,13 +44,14 @@ def import_urdf(
     if not library.imports(path):
         raise ModelError("not a URDF or MJCF file (expected a .urdf or .xml file name)",
                          source=shown)
-    options = reading_options(fix_base, inertia, lock)
+    options = reading_options(fix_base, inertia, lock, floating_base)
     imported = library.import_robot(path, options)
     robot = robot_from_text(imported.text, f"{shown} (imported)")   # what is written loads
     for warning in imported.warnings:
         typer.echo(f"anadyn: warning: {warning}", err=True)
-    summary = (f"{robot.name}: {len(robot.coordinates)} coordinates, {len(robot.bodies)} "
-               f"bodies, {len(robot.actuators)} actuators")
+    summary = (f"{robot.name}: {len(robot.coordinates)} coordinates, {len(robot.speeds)} "
+               f"degrees of freedom, {len(robot.bodies)} bodies, {len(robot.actuators)} "
+               "actuators")
     if output is None:
         typer.echo(imported.text, nl=False)
         typer.echo(f"anadyn: imported {shown} ({summary})", err=True)

@@ -82,8 +82,7 @@ class RobotInfo:
             name=robot.name, source=robot.source, digest=robot.digest,
             coordinates=tuple(CoordinateInfo(c.name, c.unit, float(c.initial), float(c.rate))
                               for c in robot.coordinates),
-            actuators=tuple(ActuatorInfo(a.name, a.unit, _float(robot.body(a.body).joint
-                                                                 .limits.effort))
+            actuators=tuple(ActuatorInfo(a.name, a.unit, _float(a.effort_limit))
                             for a in robot.actuators),
             simulation=robot.simulation, has_controller=robot.controller is not None,
             name_given=robot.name_given, joint_limits=joint_limit_infos(robot),

@@ -172,9 +172,11 @@ class Compound:
     makes the chain, so every formulation, recursion and service sees only one-part
     joints.  ``chain`` gives the parts in order from the parent: (type word, unit
     axis in the joint frame, index of the coordinate it takes, or ``None``: the
-    first coordinate times ``pitch``)."""
+    first coordinate times ``pitch``; a spherical part takes four, from that index:
+    its quaternion)."""
     word = ""
     coordinates = 0             # how many coordinates the robot file lists for it
+    moving = True               # it has coordinates (as ``JointType.moving`` says)
 
     def chain(self, axis, axis2, basis):
         raise NotImplementedError
@@ -192,7 +194,7 @@ class Planar(Compound):
 
     def chain(self, axis, axis2, basis):
         e1, e2 = basis(axis)
-        return [("prismatic", e1, 0), ("prismatic", e2, 1), ("revolute", axis, 2)]
+        return [(Prismatic.word, e1, 0), (Prismatic.word, e2, 1), (Revolute.word, axis, 2)]
 
 
 class Universal(Compound):
@@ -202,7 +204,7 @@ class Universal(Compound):
     coordinates = 2
 
     def chain(self, axis, axis2, basis):
-        return [("revolute", axis, 0), ("revolute", axis2, 1)]
+        return [(Revolute.word, axis, 0), (Revolute.word, axis2, 1)]
 
 
 class Cylindrical(Compound):
@@ -211,7 +213,7 @@ class Cylindrical(Compound):
     coordinates = 2
 
     def chain(self, axis, axis2, basis):
-        return [("prismatic", axis, 1), ("revolute", axis, 0)]
+        return [(Prismatic.word, axis, 1), (Revolute.word, axis, 0)]
 
 
 class Helical(Compound):
@@ -221,9 +223,23 @@ class Helical(Compound):
     coordinates = 1
 
     def chain(self, axis, axis2, basis):
-        return [("prismatic", axis, None), ("revolute", axis, 0)]
+        return [(Prismatic.word, axis, None), (Revolute.word, axis, 0)]
+
+
+class Floating(Compound):
+    """Moves freely: slides x, y, z along the joint frame's axes, then turns about its
+    origin as a spherical joint does (coordinates x, y, z, qw, qx, qy, qz).  Its
+    speeds are the rates dx, dy, dz (the origin's velocity in the joint frame, which
+    is the world frame for a robot's base) and the body's angular velocity in body
+    axes (wx, wy, wz): MuJoCo's free joint."""
+    word = "floating"
+    coordinates = 7
+
+    def chain(self, axis, axis2, basis):
+        return [(Prismatic.word, (1, 0, 0), 0), (Prismatic.word, (0, 1, 0), 1),
+                (Prismatic.word, (0, 0, 1), 2), (Spherical.word, None, 3)]
 
 
 #: type word -> compound joint type (expanded by the loader into ``JOINT_TYPES`` parts)
 COMPOUND_TYPES = MappingProxyType({kind.word: kind() for kind in
-                                   (Planar, Universal, Cylindrical, Helical)})
+                                   (Planar, Universal, Cylindrical, Helical, Floating)})

@@ -84,12 +84,16 @@ def imports(path: Path) -> bool:
 
 def import_robot(path: Path, options=None):
     """``urdf.import_file`` or ``mjcf.import_file`` of ``path`` with the reading
-    options (--fix-base, --inertia, --lock; default: the current ``urdf.READING``)."""
+    options (--fix-base, --floating-base, --inertia, --lock; default: the current
+    ``urdf.READING``)."""
     from . import mjcf, urdf
 
     options = urdf.READING.get() if options is None else options
-    importer = urdf.import_file if path.suffix.lower() == ".urdf" else mjcf.import_file
-    return importer(path, options.fix_base, options.inertia, options.lock)
+    if path.suffix.lower() == ".urdf":
+        return urdf.import_file(path, options.fix_base, options.inertia, options.lock,
+                                options.floating_base)
+    return mjcf.import_file(path, options.fix_base, options.inertia, options.lock,
+                            options.floating_base)
 
 
 def shipped_yaml() -> list[Path]:

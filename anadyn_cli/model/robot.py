@@ -17,6 +17,7 @@ from .joints import JOINT_TYPES as _JOINT_TYPES, JointType
 
 if TYPE_CHECKING:
     from .constraints import Constraints
+    from .contacts import Contacts
 
 Vector = tuple[sp.Expr, sp.Expr, sp.Expr]
 #: the type words a robot file accepts (``joints.JOINT_TYPES``)
@@ -113,10 +114,16 @@ class Body:
 class Actuator:
     """An effort along ``body``'s joint axis acting on ``body``, with the equal
     and opposite reaction on its parent: a torque (N*m) for a revolute joint,
-    a force (N) for a prismatic one."""
+    a force (N) for a prismatic one; through a drive (``actuators[].drive``) the
+    generalized force is ``scale`` times the effort (scale = N*k_t: gear ratio N, torque
+    constant k_t when the effort is a current in A)."""
     name: str
     body: str
-    unit: str                 # "N*m" or "N"
+    unit: str                 # "N*m" or "N"; "N*m" (motor torque) or "A" behind a drive
+    scale: sp.Expr = sp.Integer(1)
+    #: |effort| <= effort_limit (its unit): the drive's effort_limit, else the joint's
+    #: limits.effort / |scale|; None: no bound
+    effort_limit: sp.Expr | None = None
 
 
 @dataclass(frozen=True)
@@ -169,6 +176,7 @@ class Robot:
     description: str = ""
     name_given: bool = True                # False: named after its file
     constraints: "Constraints | None" = None   # loops and constraints (model.constraints)
+    contacts: "Contacts | None" = None         # contacts with ground planes (model.contacts)
 
     def parameter_substitution(self, symbolic: bool = False) -> dict[sp.Symbol, sp.Expr]:
         """Parameter symbol -> value, for ``xreplace``.
@@ -216,6 +224,16 @@ class Robot:
 
             raise ModelError(f"{what} of a robot with a spherical joint are not supported "
                              "yet (its speeds are not its coordinates' rates); simulate, "
+                             "check and accuracy run it", source=self.source)
+
+    def refuse_contacts(self, what: str) -> None:
+        """ModelError (one line, exit 2) when the robot has contacts (``model.contacts``):
+        their forces exist only in the recursive dynamics, which ``what`` does not run."""
+        if self.contacts is not None:
+            from ..errors import ModelError
+
+            raise ModelError(f"{what} of a robot with contacts are not supported yet (the "
+                             "contact forces exist only in the recursive dynamics); simulate, "
                              "check and accuracy run it", source=self.source)
 
     def body(self, name: str) -> Body:

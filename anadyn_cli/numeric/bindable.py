@@ -258,9 +258,9 @@ def source(folding: Folding, formulation: str = "kane",
     else:
         code = generator(robot)
     values = robot.parameter_substitution()
-    functions = [Function("start", (), (("x0", [*(c.initial for c in robot.coordinates),
-                                                 *(c.rate for c in robot.coordinates)]),),
-                          False, "Initial state [q(0), dq(0)] at the bound values.")]
+    functions = [Function("start", (), (("x", [*(c.initial for c in robot.coordinates),
+                                                 *(u.initial for u in robot.speeds)]),),
+                          False, "Initial state [q(0), u(0)] at the bound values.")]
     free_set = {free_symbol(n) for n in folding.names}
     masses, inertias, dependent = [], [], []
     for body in robot.bodies:

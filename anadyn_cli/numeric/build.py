@@ -115,6 +115,7 @@ def numeric_model(robot, formulation: str | None = None, use_cache: bool = False
     from . import closed_form, trajectory
     from ..symbolic.formulations import derive
 
+    robot.refuse_contacts("closed forms (--formulation, --evaluator closed-form)")
     if eom is None:
         start = time.perf_counter()
         eom = derive(robot, formulation)

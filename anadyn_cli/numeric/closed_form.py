@@ -16,6 +16,17 @@ K gives the Jacobian of the state derivative without a symbolic inverse:
 d(ddq)/dx = M^-1 K, since differentiating M ddq = G gives
 M d(ddq) = dG - (dM) ddq.
 
+With a spherical joint the state is x = [q, u] (nq coordinates, the quaternion's
+included, and n speeds; ``EquationsOfMotion.kinematic``): dq above reads u, ddq
+reads du, K is n x (nq + n), and the module adds
+
+    rates(t, q, u)                   -> dq = W(q) u, the kinematic differential
+                                        equations                       (vectorized)
+
+``dynamics_jacobian`` returns R = d(W(q) u)/dx (nq x (nq + n)) after M and K, and
+SPEEDS and QUATERNIONS name the speeds and each quaternion's coordinate indices
+(as the recursive path's module does).
+
 The powers feed ``check``'s energy balance, so they are computed from the
 kinematics, not from F: the loads' power as f . d(r_p)/dt + T . w with r_p
 the point's world position differentiated along the motion, the dissipated
@@ -53,7 +64,7 @@ def powers(robot: Robot, kin: kinematics.Kinematics) -> list[sp.Expr] | None:
     joints, loads = forces.joint_forces(robot, kin), forces.loads(robot, kin)
     if not joints and not loads:
         return None
-    rate_of = Derivative(dict(zip(kin.q, kin.dq)))
+    rate_of = Derivative(dict(zip(kin.q, kin.dq if kin.kinematic is None else kin.kinematic)))
     dq = sp.Matrix(kin.dq)
     loads_power = []
     for load in loads:
@@ -92,17 +103,25 @@ def forces_source(robot: Robot) -> str:
 
 
 def state_partials(M: sp.Matrix, G: sp.Matrix, q: list, dq: list, ddq: list) -> sp.Matrix:
-    """K = [dG/dq - (dM/dq) ddq | dG/d(dq)] (n x 2n), so that d(ddq)/dx = M^-1 K for
-    M ddq = G(t, q, dq) (differentiating it: M d(ddq) = dG - (dM) ddq)."""
-    n = len(q)
-    K = sp.zeros(n, 2 * n)
+    """K = [dG/dq - (dM/dq) ddq | dG/d(dq)] (n x (nq + n)), so that d(ddq)/dx = M^-1 K
+    for M ddq = G(t, q, dq) (differentiating it: M d(ddq) = dG - (dM) ddq); dq the
+    speeds, nq = n unless a spherical joint adds its quaternion."""
+    n, nq = len(dq), len(q)
+    K = sp.zeros(n, nq + n)
     for k, variable in enumerate(q + dq):
         d = Derivative({variable: 1})
         column = sp.Matrix([d(g) for g in G])
-        if k < n:
+        if k < nq:
             column -= M.applyfunc(d) * sp.Matrix(ddq)
         K[:, k] = column
     return K
+
+
+def quaternions(robot: Robot) -> tuple:
+    """The coordinate indices of each spherical joint's quaternion (qw, qx, qy, qz)."""
+    names = [c.name for c in robot.coordinates]
+    return tuple(tuple(names.index(c) for c in b.joint.coordinates) for b in robot.bodies
+                 if b.joint.joint_type.orientation)
 
 
 def source(robot: Robot, eom: EquationsOfMotion, jacobian: bool = True) -> str:
@@ -129,9 +148,16 @@ def source(robot: Robot, eom: EquationsOfMotion, jacobian: bool = True) -> str:
     ]
     if jacobian:
         K = state_partials(M, G, q, dq, ddq)
-        functions.insert(0, Function(
-            "dynamics_jacobian", (*state, *ddq), (("M", M), ("K", K)), False,
-            "M and K = [dG/dq - (dM/dq) ddq | dG/d(dq)]; d(ddq)/dx = M^-1 K."))
+        outputs = (("M", M), ("K", K))
+        doc = "M and K = [dG/dq - (dM/dq) ddq | dG/d(dq)]; d(ddq)/dx = M^-1 K."
+        if eom.kinematic is not None:
+            outputs += (("R", sp.Matrix(eom.kinematic).jacobian(q + dq)),)
+            doc += " R = d(W(q) u)/dx, the coordinates' rows."
+        functions.insert(0, Function("dynamics_jacobian", (*state, *ddq), outputs, False, doc))
+    if eom.kinematic is not None:
+        functions.append(Function("rates", state, (("dq", list(eom.kinematic)),), True,
+                                  "The coordinates' rates dq = W(q) u (a spherical joint's "
+                                  "quaternion: 1/2 q (x) (0, w))."))
     power = powers(robot, kin)
     if power is not None:
         functions.append(Function("powers", state, (("P", power),), True,
@@ -144,4 +170,7 @@ def source(robot: Robot, eom: EquationsOfMotion, jacobian: bool = True) -> str:
               f"efforts {', '.join(map(str, eom.efforts)) or 'none'}")
     names = (f"COORDINATES = {tuple(str(s) for s in q)!r}\n"
              f"EFFORTS = {tuple(str(s) for s in eom.efforts)!r}\n")
+    if eom.kinematic is not None:          # speeds that are not rates: x = [q, u]
+        names += (f"SPEEDS = {tuple(str(s) for s in dq)!r}\n"
+                  f"QUATERNIONS = {quaternions(robot)!r}\n")
     return module_source(functions, header) + "\n".join(solver) + "\n\n" + names

@@ -193,6 +193,7 @@ def generate(robot, parameters=()) -> Generated:
         raise ModelError(f"{robot.source}: derivatives need an open tree; {robot.name} has "
                          "closed loops (constraints)")
     robot.refuse_spherical("derivatives (anadyn.derivatives, export --derivatives)")
+    robot.refuse_contacts("derivatives (anadyn.derivatives, export --derivatives)")
     names = chosen(robot, parameters)
     pl = plan(robot)
     extra = ((trace_parameter_jacobian(robot, pl, names), trace_law_slopes(robot, pl, names))

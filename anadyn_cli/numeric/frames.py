@@ -97,7 +97,7 @@ def source(robot) -> tuple[Skeleton, str]:
     from ..symbolic import kinematics
     from .codegen import Function, module_source
 
-    robot.refuse_spherical("drawings (show, animate, view)")
+    robot.refuse_contacts("drawings (show, animate, view)")
     kin = kinematics.build(robot)
     origins, rotations, coms, joints, axes, tips = [], [], [], [], [], []
     for k, b in enumerate(kin.bodies):

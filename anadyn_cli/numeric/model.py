@@ -86,6 +86,14 @@ class NumericModel:
                         if "TRAJECTORY" in namespace else None)
         self._motion_error = namespace.get("MOTION_ERROR")
         self._powers = namespace.get("powers")    # only with loads or joint forces
+        self._momentum = namespace.get("momentum")   # only for a free robot (Plan.free)
+        #: a free robot's gravity and whether loads or contacts act on it (``conserved``)
+        self._outside = (namespace.get("GRAVITY"), namespace.get("EXTERNAL"))
+        #: the contacts' names, in file order (``numeric.contact``; () without contacts)
+        self.contact_names: tuple[str, ...] = namespace.get("CONTACTS", ())
+        self._contacts = namespace.get("contacts")
+        #: per contact: stiffness k, exponent p and its body's mass (check's time constant)
+        self.contact_laws: tuple = namespace.get("CONTACT_LAWS", ())
         self._namespace = namespace               # the whole module (numeric.constrained)
 
     @property
@@ -219,6 +227,40 @@ class NumericModel:
             return np.zeros((2, *np.broadcast_shapes(np.shape(t), np.shape(q)[1:])))
         with np.errstate(all="ignore"):
             return np.moveaxis(self._powers(t, *q, *dq), -1, 0)
+
+    def momentum(self, t, q, u) -> np.ndarray | None:
+        """(8, ...): a free robot's linear momentum P (kg m/s) and angular momentum L
+        about the world origin (kg m^2/s), world axes, then their scales sum |p_i|
+        and sum |l_i| + d_i |p_i| (``recursive.momentum``); None for a robot that is
+        not free (held by the ground through a joint)."""
+        if self._momentum is None:
+            return None
+        return np.moveaxis(self._momentum(t, *q, *u), -1, 0)
+
+    def conserved(self) -> np.ndarray | None:
+        """The momentum's conserved directions, rows of a (k, 6) matrix C (C h is
+        constant): all six without gravity; under gravity g the linear momentum normal
+        to g and the angular momentum along g; none with loads or contacts; None for a
+        robot that is not free."""
+        gravity, external = self._outside
+        if self._momentum is None:
+            return None
+        if external:
+            return np.zeros((0, 6))
+        g = np.asarray(gravity, float)
+        if not np.any(g):
+            return np.eye(6)
+        down = g / np.linalg.norm(g)
+        normal = np.linalg.svd(down[None, :])[2][1:]          # two unit vectors normal to g
+        return np.vstack([np.hstack([normal, np.zeros((2, 3))]),
+                          np.hstack([np.zeros(3), down])[None, :]])
+
+    def contacts(self, t, q, dq) -> np.ndarray:
+        """(contacts, 6, ...) per contact: normal force, friction along the ground's
+        tangents t1, t2 (N), penetration (m, < 0: the gap), spring energy (J) and
+        dissipated power (W) (``numeric.contact``)."""
+        with np.errstate(all="ignore"):
+            return np.moveaxis(self._contacts(t, *q, *dq), (-2, -1), (0, 1))
 
     def energy(self, q, dq) -> tuple[np.ndarray, np.ndarray]:
         """(T, V) over arrays of states: T = 1/2 dq^T M dq, V of gravity and springs."""

@@ -40,6 +40,10 @@ from dominating the study.
 
 ``estimate_error`` gives any run its global error by a re-solve at a 1000x
 tighter tolerance (``anadyn simulate --estimate-error``).
+
+On a scene with contacts each run also gets ``event_error``: the largest difference
+between its touch-down and lift-off times and its reference's, both found from the
+output rows (``contact_run``); inf when a bounce is missing or extra.
 """
 from __future__ import annotations
 
@@ -56,7 +60,7 @@ import numpy as np
 from .. import errors
 from ..errors import NumericalError
 from ..model.info import RobotInfo
-from ..numeric import constrained, integrators
+from ..numeric import constrained, contact_run, integrators
 from ..numeric.build import computation
 from ..numeric.integrators import Problem, state_error
 from ..numeric.model import NumericModel
@@ -197,6 +201,7 @@ class Row:
     reference: str = ""
     note: str = ""
     drift: float = math.nan        # closed chains: largest constraint residual along the run
+    event_error: float = math.nan  # contacts: largest error of the events' times, s
 
     @property
     def ok(self) -> bool:
@@ -330,6 +335,10 @@ def study(model: NumericModel, methods=integrators.METHODS,
                             solution.steps, ref.describe()))
             if constrained.is_constrained(model):     # constraint drift, part of the error
                 rows[-1].drift = max(constrained.drift(model, solution.t, solution.x))
+            if model.contact_names:                   # the contact events' times
+                rows[-1].event_error = contact_run.event_error(*(
+                    contact_run.run_report(model, grid, x).events() for x in (solution.x,
+                                                                              ref.x)))
     timings["study"] = time.perf_counter() - start
     return AccuracyStudy(robot, settings.t_end, settings.output_step, grid, refs, given_up,
                          ref_error, rows, repeats, max_calls, timings, computation(model))
@@ -346,7 +355,9 @@ def csv_text(result: AccuracyStudy) -> str:
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     drift = any(not math.isnan(r.drift) for r in result.rows)     # closed chains
-    writer.writerow(CSV_COLUMNS + (("constraint_drift",) if drift else ()))
+    events = any(not math.isnan(r.event_error) for r in result.rows)    # contacts
+    writer.writerow(CSV_COLUMNS + (("constraint_drift",) if drift else ())
+                    + (("event_error",) if events else ()))
     for r in result.rows:
         writer.writerow([r.method, r.ran, f"{r.rtol:.17g}", f"{r.atol:.17g}", r.status,
                          "" if math.isnan(r.max_error) else f"{r.max_error:.17g}",
@@ -354,7 +365,9 @@ def csv_text(result: AccuracyStudy) -> str:
                          "" if math.isnan(r.wall_s) else f"{r.wall_s:.9g}",
                          r.rhs_calls, r.jacobian_calls, r.steps, r.reference, r.note]
                         + ([("" if math.isnan(r.drift) else f"{r.drift:.17g}")] if drift
-                           else []))
+                           else [])
+                        + ([("" if math.isnan(r.event_error) else f"{r.event_error:.17g}")]
+                           if events else []))
     return buffer.getvalue()
 
 
@@ -379,7 +392,10 @@ def summary(result: AccuracyStudy) -> dict:
                   "wall_s": None if math.isnan(r.wall_s) else r.wall_s,
                   "rhs_calls": r.rhs_calls, "jacobian_calls": r.jacobian_calls,
                   "steps": r.steps, "reference": r.reference, "note": r.note,
-                  **({} if math.isnan(r.drift) else {"constraint_drift": r.drift})}
+                  **({} if math.isnan(r.drift) else {"constraint_drift": r.drift}),
+                  **({} if math.isnan(r.event_error) or math.isinf(r.event_error)
+                     else {"event_error": r.event_error}),
+                  **({"event_error": "events differ"} if math.isinf(r.event_error) else {})}
                  for r in result.rows],
         "levels": result.levels(),
         "timings": dict(result.timings),

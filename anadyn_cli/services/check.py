@@ -34,7 +34,20 @@ carried along as one more state.  Along that path:
   damping and friction (>= 0), over the energy scale max(max T,
   max V - min V, max |W|, max |W_loads|, max E_d).  Passive scenes (no
   actuators, loads or joint forces) have W = W_loads = E_d = 0 and this is
-  the energy drift.
+  the energy drift.  With contacts (``numeric.contact``), V also holds their
+  springs' energy V_c = k max(0, d)^(p+1) / (p+1) and E_d what their damping and
+  friction dissipate; the report gives each contact's largest penetration and the
+  time constant sqrt(m / k_eff) of its body's mass m on the spring linearized there,
+  k_eff = p k d^(p-1).
+
+* **Momentum** of a free robot (every root on a floating joint): the linear
+  momentum P and the angular momentum L about the world origin (world axes, from
+  the body velocities, ``NumericModel.momentum``), whose conserved parts
+  (``NumericModel.conserved``: all of them without gravity, loads or contacts;
+  under gravity the part of P normal to g and L . g) must stay at their start:
+  max |C (h - h0)| over the largest sum of the bodies' own momenta along the
+  path (sum |p_i|, sum |l_i| + d_i |p_i|: a satellite's total is zero, its
+  bus's and wheel's are not), under the energy threshold.
 
 How W is integrated: it is **augmented to the state**, dW/dt = P(t, x) =
 tau . (B^T dq) (generalized force of the actuators times rate), and stepped
@@ -62,7 +75,7 @@ import numpy as np
 from .. import errors
 from ..errors import CheckFailed, NumericalError, positive
 from ..model.info import RobotInfo
-from ..numeric import constrained, integrators
+from ..numeric import constrained, contact_run, integrators
 from ..numeric.build import computation
 from ..numeric.integrators import Problem
 from ..numeric.model import NumericModel, scaled_condition
@@ -134,6 +147,9 @@ class StabilityReport:
     load_work: np.ndarray | None = None   # loads' work W_loads(t); None: no loads or
     dissipated: np.ndarray | None = None  # joint forces; energy dissipated E_d(t) >= 0
     constraints: "constrained.ConstraintCheck | None" = None   # closed chains
+    contacts: "contact_run.ContactRun | None" = None     # contact forces on the rows
+    contact_laws: tuple = ()                     # per contact: k, p, its body's mass
+    momentum: "Momentum | None" = None           # a free robot's momentum (``momentum``)
     computation: dict = field(default_factory=dict)   # what ran (numeric.build.computation)
 
     @property
@@ -143,7 +159,8 @@ class StabilityReport:
     @property
     def balance(self) -> str:
         """The balance checked, e.g. T + V - W - W_loads + E_d - E0."""
-        return ("T + V" + ("" if not self.robot.actuators else " - W")
+        return ("T + V" + ("" if self.contacts is None else " + V_c")
+                + ("" if not self.robot.actuators else " - W")
                 + ("" if self.load_work is None else " - W_loads + E_d") + " - E0")
 
     @property
@@ -187,14 +204,22 @@ def external_powers(model: NumericModel, t: float, x: np.ndarray) -> np.ndarray:
     """[P_loads, P_dissipated] at one state: the loads' power and the power that joint
     damping and friction dissipate (>= 0)."""
     nq = model.nq
-    return np.asarray(model.powers(t, x[:nq], x[nq:]), dtype=float).reshape(2)
+    out = np.asarray(model.powers(t, x[:nq], x[nq:]), dtype=float).reshape(2)
+    if model.contact_names:                   # what the contacts dissipate
+        out[1] += float(np.sum(model.contacts(t, x[:nq], x[nq:])[:, 5]))
+    return out
+
+
+def forced(model: NumericModel) -> bool:
+    """Whether W_loads and E_d are carried: loads, joint forces or contacts."""
+    return model.has_forces or bool(model.contact_names)
 
 
 def with_work(model: NumericModel, actuated: bool) -> Problem:
     """The direct dynamics with the actuators' work W as one more state, W' = P; with
     loads or joint forces also their work W_loads and the dissipated energy E_d."""
     n2 = model.nq + model.n
-    extra = 3 if model.has_forces else 1
+    extra = 3 if forced(model) else 1
 
     def powers(t, x):
         out = np.zeros(extra)
@@ -268,6 +293,38 @@ def explicit_probe(problem: Problem, x0: np.ndarray, t0: float, t_end: float,
     return Probe(window - t0, loose_calls, tight_calls, loose_capped, over)
 
 
+@dataclass
+class Momentum:
+    """A free robot's momentum along the path: ``h`` (rows, 6) = (P, L) in world axes,
+    ``conserved`` the rows of C (``NumericModel.conserved``) and the relative drift of
+    the conserved linear and angular parts (0 where none is conserved)."""
+    h: np.ndarray
+    conserved: np.ndarray
+    linear: float
+    angular: float
+
+    @property
+    def drift(self) -> float:
+        return max(self.linear, self.angular)
+
+
+def momentum(model: NumericModel, t: np.ndarray, x: np.ndarray) -> Momentum | None:
+    """The momentum check of a free robot (module docstring); None for another."""
+    C = model.conserved()
+    if C is None:
+        return None
+    nq = model.nq
+    values = np.asarray(model.momentum(t, x[:, :nq].T, x[:, nq:].T), dtype=float).T
+    h, scales = values[:, :6], values[:, 6:].max(axis=0)
+    change = np.abs((h - h[0]) @ C.T)
+    drifts = []
+    for part, scale in zip((slice(0, 3), slice(3, 6)), scales):
+        rows = np.any(C[:, part] != 0, axis=1)
+        drifts.append(float(change[:, rows].max()) / scale if rows.any() and scale > 0
+                      else 0.0)
+    return Momentum(h, C, *drifts)
+
+
 def mass_conditions(model: NumericModel, t: np.ndarray, x: np.ndarray):
     """(times, raw, scaled) condition numbers of M at up to 20,000 rows."""
     stride = max(1, math.ceil(len(t) / CONDITION_ROWS))
@@ -296,7 +353,7 @@ def check(model: NumericModel, rtol: float | None = None,
     grid = output_grid(settings.t_end, settings.output_step)
     x0 = model.initial_state()
     timings: dict = {}
-    extra = 3 if model.has_forces else 1
+    extra = 3 if forced(model) else 1
     solution = integrators.integrate(with_work(model, bool(robot.actuators)),
                                      np.append(x0, np.zeros(extra)), grid, "odeint",
                                      settings.rtol, settings.atol)
@@ -319,6 +376,9 @@ def check(model: NumericModel, rtol: float | None = None,
     nq = model.nq
     T, V = model.energy(x[:, :nq].T, x[:, nq:].T)
     T, V = np.asarray(T, dtype=float), np.asarray(V, dtype=float)
+    contacts = contact_run.run_report(model, grid, x)
+    if contacts is not None:                   # the contacts' springs
+        V = V + contacts.values[:, 4].sum(axis=0)
     E = T + V
     residual = E - work - E[0]
     scale = max(float(T.max()), float(V.max() - V.min()), float(np.abs(work).max()))
@@ -332,7 +392,8 @@ def check(model: NumericModel, rtol: float | None = None,
                              work, calls, wall, sample_t, decay, growth, speed, classic, raw,
                              scaled, cond_t, residual, scale, probe, timings=timings,
                              load_work=load_work, dissipated=dissipated,
-                             computation=computation(model))
+                             contacts=contacts, contact_laws=model.contact_laws,
+                             momentum=momentum(model, grid, x), computation=computation(model))
     if constrained.is_constrained(model):      # constraint Jacobian along the path
         report.constraints = constrained.conditioning(model, grid, x)
     _judge(report, max_condition, energy_tol)
@@ -345,6 +406,11 @@ def _judge(report: StabilityReport, max_condition: float, energy_tol: float) -> 
     report.checks.append(Check(what, error, energy_tol, error <= energy_tol, (
         f"{what}: max |{report.balance}| / scale = {error:.2e}"
         f" (threshold {energy_tol:.0e})")))
+    h = report.momentum
+    if h is not None and len(h.conserved):
+        report.checks.append(Check("momentum", h.drift, energy_tol, h.drift <= energy_tol, (
+            f"momentum: max |conserved part of (P, L) - its start| / scale = linear "
+            f"{h.linear:.2e}, angular {h.angular:.2e} (threshold {energy_tol:.0e})")))
     worst = float(np.nanmax(report.scaled_condition))
     report.checks.append(Check("mass matrix conditioning", worst, max_condition,
                                worst <= max_condition, (
@@ -454,9 +520,16 @@ def text(report: StabilityReport) -> str:
     if r.load_work is not None:
         lines.insert(-1, f"energy: loads' work W_loads from {r.load_work.min():.4g} to "
                          f"{r.load_work.max():.4g} J; dissipated by joint damping and "
-                         f"friction E_d = {r.dissipated[-1]:.4g} J at the end")
+                         f"friction{'' if r.contacts is None else ' and the contacts'} "
+                         f"E_d = {r.dissipated[-1]:.4g} J at the end")
     if r.constraints is not None:
         lines.append(r.constraints.line())
+    if r.momentum is not None:
+        lines.insert(-1, _momentum_line(r.momentum))
+    for name, depth, at, tau in contact_figures(r):
+        lines.insert(-1, f"contact {name} (compliant): largest penetration {depth:.3g} m" + (
+            f" at t = {at:.4g} s; time constant sqrt(m/k_eff) there {_seconds(tau)}"
+            if depth > 0 else " (never touched)"))
     for c in r.checks:
         lines.append(f"{'ok  ' if c.passed else 'FAIL'} {c.text}")
     for w in r.warnings:
@@ -464,6 +537,35 @@ def text(report: StabilityReport) -> str:
     failed = [c.name for c in r.checks if not c.passed]
     lines.append(f"check: {'passed' if not failed else 'FAILED (' + ', '.join(failed) + ')'}")
     return "\n".join(lines)
+
+
+def _momentum_line(h: Momentum) -> str:
+    """What is conserved of a free robot's momentum, and its end values."""
+    P, L = h.h[-1, :3], h.h[-1, 3:]
+    what = ("nothing conserved: loads or contacts act" if not len(h.conserved) else
+            "all conserved (no external force)" if len(h.conserved) == 6 else
+            "conserved: P normal to gravity, L along it")
+    return (f"momentum: free robot, {what}; at the end P = "
+            f"({', '.join(f'{v:.4g}' for v in P)}) kg m/s, L = "
+            f"({', '.join(f'{v:.4g}' for v in L)}) kg m^2/s (world axes, about the origin)")
+
+
+def contact_figures(report: StabilityReport) -> list[tuple[str, float, float, float]]:
+    """Per contact: its largest penetration d (m, 0 if it never touched), when, and the
+    time constant sqrt(m / k_eff) of its body's mass on the spring linearized there,
+    k_eff = p k d^(p-1) (inf when it never touched or its body has no mass)."""
+    if report.contacts is None:
+        return []
+    out = []
+    for c, name in enumerate(report.contacts.names):
+        depth = report.contacts.values[c, 3]
+        row = int(np.argmax(depth))
+        d = max(float(depth[row]), 0.0)
+        k, p, mass = report.contact_laws[c]
+        stiffness = p * k * d ** (p - 1) if d > 0 else 0.0
+        tau = math.sqrt(mass / stiffness) if stiffness > 0 and mass > 0 else math.inf
+        out.append((name, d, float(report.t[row]), tau))
+    return out
 
 
 def summary(report: StabilityReport) -> dict:
@@ -486,6 +588,10 @@ def summary(report: StabilityReport) -> dict:
         "mass_condition": float(np.nanmax(r.condition)),
         "mass_condition_scaled": float(np.nanmax(r.scaled_condition)),
         "passive": r.passive, "energy_error": r.energy_error,
+        "momentum": None if r.momentum is None else {
+            "conserved_rows": r.momentum.conserved.tolist(), "linear_drift": r.momentum.linear,
+            "angular_drift": r.momentum.angular, "start": r.momentum.h[0].tolist(),
+            "end": r.momentum.h[-1].tolist()},
         "energy_residual_max": float(np.abs(r.energy_residual).max()),
         "energy_scale": r.energy_scale,
         "actuator_work_final": float(r.work[-1]),
@@ -496,6 +602,10 @@ def summary(report: StabilityReport) -> dict:
         "warnings": list(r.warnings),
         "timings": dict(r.timings),
         **({} if r.constraints is None else {"constraints": r.constraints.summary()}),
+        **({} if r.contacts is None else {"contacts": {
+            name: {"model": "compliant", "max_penetration": depth, "at": at,
+                   "time_constant": tau if math.isfinite(tau) else None}
+            for name, depth, at, tau in contact_figures(r)}}),
     }
 
 

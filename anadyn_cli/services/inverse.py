@@ -180,6 +180,10 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
         raise ModelError(f"{info.source}: inverse dynamics of a robot with a spherical joint "
                          "are not supported yet: a prescribed motion (trajectory or measured) "
                          "gives coordinates, not a quaternion's path and angular velocity")
+    if model.contact_names:
+        raise ModelError(f"{info.source}: inverse dynamics of a robot with contacts are not "
+                         "supported yet (which contact forces a motion needs is not resolved); "
+                         "simulate, check and accuracy run it")
     if measured is not None and step is not None:
         raise SettingError("output_step", "does not apply to a measured motion: its efforts "
                                           "are computed at its samples")

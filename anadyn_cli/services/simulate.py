@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import NumericalError
 from ..model.info import RobotInfo, Simulation
-from ..numeric import constrained, integrators
+from ..numeric import constrained, contact_run, integrators
 from ..numeric.build import titled
 from ..numeric.model import NumericModel
 from ..numeric.settings import output_grid, resolve
@@ -44,6 +44,7 @@ class SimulationResult(Displayed):
     limits: list = field(default_factory=list)   # limits.Exceeded: bounds of the file passed
     code: str = ""                        # what computed the RHS (native C, generated Python)
     quaternion_drift: float | None = None     # max | |q| - 1 | before the rows were made unit
+    contacts: "contact_run.ContactRun | None" = None   # contact forces and events, per row
 
     @property
     def t(self) -> np.ndarray:
@@ -95,6 +96,7 @@ def simulate(model: NumericModel, method: str | None = None, rtol: float | None 
                                  result.efforts)
     if constrained.is_constrained(model):       # drift and constraint forces on every row
         result.constraints = model.run_report(solution.t, solution.x)
+    result.contacts = contact_run.run_report(model, solution.t, solution.x)
     if estimate_error and solution.success:
         start = time.perf_counter()
         result.estimated_error = integrators.estimate_error(problem, solution, settings.rtol,
@@ -105,13 +107,17 @@ def simulate(model: NumericModel, method: str | None = None, rtol: float | None 
 
 def columns(result: SimulationResult) -> tuple[list[str], list[np.ndarray]]:
     """CSV contract: t, coordinates, speeds (the rates d<name>, or with a spherical
-    joint the speeds ``Robot.speeds`` names), actuator efforts."""
+    joint the speeds ``Robot.speeds`` names), actuator efforts; then the closed
+    chains' multipliers and drift, the contacts' forces and penetrations."""
     names = [c.name for c in result.robot.coordinates]
     speeds = [u.name for u in result.robot.speeds] or ["d" + n for n in names]
     header = ["t", *names, *speeds, *(a.name for a in result.robot.actuators)]
     data = [result.t, *result.x.T, *result.efforts.T]
     if result.constraints is not None:        # after the contract: multipliers, drift
         extra_header, extra = result.constraints.columns()
+        header, data = header + extra_header, data + extra
+    if result.contacts is not None:
+        extra_header, extra = result.contacts.columns()
         header, data = header + extra_header, data + extra
     return header, data
 
@@ -161,7 +167,8 @@ def summary(result: SimulationResult) -> dict:
             "limits": limits.summary(result.robot, result.limits),
             **({} if result.constraints is None else result.constraints.summary()),
             **({} if result.quaternion_drift is None
-               else {"quaternion_drift": result.quaternion_drift})}
+               else {"quaternion_drift": result.quaternion_drift}),
+            **({} if result.contacts is None else {"contact": result.contacts.summary()})}
 
 
 def plot_title(result: SimulationResult) -> str:
@@ -186,6 +193,9 @@ def _panels(result: SimulationResult, rates: bool = False) -> list:
     if result.constraints is not None:
         panels += plots.effort_panels([(r.column, r.unit or "1") for r in
                                        result.constraints.rows], result.constraints.multipliers)
+    if result.contacts is not None:
+        panels += plots.effort_panels([(f"{name}_fn", "N") for name in result.contacts.names],
+                                      result.contacts.values[:, 0].T)
     return panels
 
 

@@ -10,6 +10,10 @@ Small systems are shown with their trigonometric terms recombined
 (``sympy.trigsimp``) and collected by accelerations and efforts; larger
 ones are printed as derived.  Numeric systems print decimals, symbolic
 ones exact numbers.
+
+With a spherical joint the equations are one per speed (labelled by the
+speed, M du = F + B tau), followed by the kinematic differential equations
+dq = W(q) u under their own heading.
 """
 from __future__ import annotations
 
@@ -47,17 +51,18 @@ def render(eom: EquationsOfMotion, fmt: str = "text", form: str = "residual") ->
     forces = sp.Matrix(eom.F - Q)       # gravity and velocity products
     heading = "# joint forces and loads: generalized forces Q, part of F"
     if form == "residual":
-        names = [sp.Symbol(f"Q_{q}") for q in eom.q]
+        labels = eom.q if eom.kinematic is None else eom.dq      # one equation per speed
+        names = [sp.Symbol(f"Q_{q}") for q in labels]
         tau = sp.Matrix(len(eom.efforts), 1, list(eom.efforts))
         residuals = eom.M * sp.Matrix(eom.ddq) - forces - eom.B * tau
-        for q, residual, name, entry in zip(eom.q, residuals, names, Q):
+        for q, residual, name, entry in zip(labels, residuals, names, Q):
             after = f" - {show(name)} = 0" if entry != 0 else " = 0"
             lines.append((f"{q}: ", tidy(residual, collect=True), after))
         if any(entry != 0 for entry in Q):
             lines.append(heading)
             lines += [(f"{show(name)} = ", tidy(entry), "") for name, entry in zip(names, Q)
                       if entry != 0]
-        return _finish(lines, show, readable)
+        return _finish(lines + _kinematic(eom, show), show, readable)
     for name, matrix in (("M", eom.M), ("F", forces), ("B", eom.B)):
         for i in range(matrix.rows):
             for j in range(matrix.cols):
@@ -69,7 +74,18 @@ def render(eom: EquationsOfMotion, fmt: str = "text", form: str = "residual") ->
     if any(entry != 0 for entry in Q):
         lines.append(heading)
         lines += [(f"Q[{i + 1}] = ", tidy(entry), "") for i, entry in enumerate(Q) if entry != 0]
-    return _finish(lines, show, readable)
+    return _finish(lines + _kinematic(eom, show), show, readable)
+
+
+def _kinematic(eom: EquationsOfMotion, show) -> list:
+    """The kinematic differential equations dq = W(q) u, when the speeds are not the
+    coordinates' rates (a spherical joint); none otherwise."""
+    if eom.kinematic is None:
+        return []
+    speeds = set(eom.dq)
+    return ["# kinematic differential equations: dq = W(q) u (a quaternion's: "
+            "1/2 q (x) (0, w))"] + [(f"{show(rate)} = ", expr, "") for rate, expr
+                                    in zip(eom.rates, eom.kinematic) if expr not in speeds]
 
 
 def _finish(lines: list, show, readable: bool) -> str:

@@ -95,8 +95,9 @@ def kane_terms(robot: Robot, eom: EquationsOfMotion) -> KaneTerms:
     method, with the same ``symbolic`` setting: they give B and the joint forces)."""
     kin = kinematics.build(robot, symbolic=eom.symbolic)
     q, dq, ddq = kin.q, kin.dq, eom.ddq
-    n = len(q)
-    along = Derivative({**dict(zip(q, dq)), **dict(zip(dq, ddq))})   # d/dt
+    n = len(dq)
+    rates = dq if kin.kinematic is None else kin.kinematic          # dq = W(q) u
+    along = Derivative({**dict(zip(q, rates)), **dict(zip(dq, ddq))})   # d/dt
     tau = Matrix(len(eom.efforts), 1, list(eom.efforts))
     active = sp.Matrix(eom.B * tau + eom.joint_forces_and_loads)
     inertia = sp.zeros(n, 1)

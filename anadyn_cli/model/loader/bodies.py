@@ -9,10 +9,11 @@ import numpy as np
 import sympy as sp
 
 from ...errors import shorten
-from ..joints import COMPOUND_TYPES, JOINT_TYPES, Spherical
+from ..joints import COMPOUND_TYPES, JOINT_TYPES, Floating, Spherical
 from ..names import GROUND, quaternion_names
 from ..robot import Body, Joint, JointLimits
 from ..yamlschema import describe_value as _kind
+from .compound import POSITION
 from .cursor import Cursor
 from .forces import JOINT_FORCE_KEYS
 
@@ -65,6 +66,8 @@ class _Bodies:
             listed = joint.get("coordinates") if _word(joint) in COMPOUND_TYPES else None
             if isinstance(listed, list):
                 claimed |= {name for name in listed if isinstance(name, str)}
+            elif _word(joint) == Floating.word and isinstance(item.value.get("name"), str):
+                claimed |= {f"{item.value['name']}_{part}" for part in POSITION}
             claimed |= set(quaternion_names(item.value))
         return claimed
 

@@ -11,6 +11,7 @@ from .actuators import _Actuators
 from .bodies import _Bodies
 from .checks import _Checks
 from .compound import _Compound
+from .contacts import _Contacts
 from .cursor import Cursor
 from .forces import _Forces
 from .motion import _Motion
@@ -19,11 +20,11 @@ from .spherical import _Spherical
 
 TOP_KEYS = ("name", "description", "parameters", "gravity", "coordinates", "speeds",
             "bodies", "actuators", "controller", "loads", "trajectory", "simulation", "loops",
-            "constraints")
+            "constraints", "contacts")
 
 
 class _RobotBuilder(_Numbers, _Bodies, _Compound, _Spherical, _Forces, _Checks, _Actuators,
-                    _Motion):
+                    _Motion, _Contacts):
     """Validates one file section by section, growing the table of known names."""
 
     def __init__(self, root: Cursor, digest: str, default_name: str,
@@ -36,6 +37,7 @@ class _RobotBuilder(_Numbers, _Bodies, _Compound, _Spherical, _Forces, _Checks, 
         self.values: dict[sp.Symbol, sp.Expr] = {}
         self.gain_values: dict[sp.Symbol, sp.Expr] = {}
         self.q: dict[str, sp.Symbol] = {}
+        self.added_coordinates: list = []          # a floating joint's x, y, z not declared
         # what each name in the file is, to say why it cannot be used somewhere
         self.kinds: dict[str, str] = {"t": "time"}
 
@@ -69,16 +71,18 @@ class _RobotBuilder(_Numbers, _Bodies, _Compound, _Spherical, _Forces, _Checks, 
         coordinate_cursors = self.coordinate_names(top["coordinates"])
         self.speed_section(top.get("speeds"))
         bodies, units, body_cursors = self.bodies(top["bodies"])
-        coordinates = self.coordinates(coordinate_cursors, units)
+        coordinates = self.coordinates(coordinate_cursors, units) + tuple(self.added_coordinates)
         coordinates = self.spherical_state(top, bodies, coordinates, coordinate_cursors,
                                            body_cursors)
         self.check_displacements(bodies, body_cursors, coordinates)
-        actuators = self.actuators(top["actuators"], bodies) if "actuators" in top else ()
+        actuators, bodies = (self.actuators(top["actuators"], bodies) if "actuators" in top
+                             else ((), bodies))           # bodies + the drives' rotors
         if "controller" in top:
             controller = self.controller(top["controller"], actuators, coordinates)
         else:
             controller = None
         loads = self.loads(top["loads"], bodies, coordinates) if "loads" in top else ()
+        contacts = self.contacts(top["contacts"], bodies) if "contacts" in top else None
         trajectory = self.trajectory(top["trajectory"]) if "trajectory" in top else None
         simulation = self.simulation(top["simulation"]) if "simulation" in top else Simulation()
         constraints = None
@@ -91,7 +95,8 @@ class _RobotBuilder(_Numbers, _Bodies, _Compound, _Spherical, _Forces, _Checks, 
                       coordinates=coordinates, bodies=bodies, actuators=actuators,
                       controller=controller, loads=loads, trajectory=trajectory,
                       simulation=simulation, description=description,
-                      name_given="name" in top, constraints=constraints)
+                      name_given="name" in top, constraints=constraints,
+                      contacts=contacts)
         self.check_mass_matrix(robot, top["coordinates"], coordinate_cursors)
         return robot
 

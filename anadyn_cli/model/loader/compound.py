@@ -1,25 +1,35 @@
-"""Compound joints (``planar``, ``universal``, ``cylindrical``, ``helical``): each
-becomes a chain of one-coordinate joints on massless links (``model.joints``:
-``Compound.chain``), so that the rest of anadyn sees only one-part joints.
+"""Compound joints (``planar``, ``universal``, ``cylindrical``, ``helical``,
+``floating``): each becomes a chain of one-part joints on massless links
+(``model.joints``: ``Compound.chain``), so that the rest of anadyn sees only
+revolute, prismatic and spherical joints.
 
 A body ``B`` whose joint is compound gets, for every part but the last, a link
-``B__<coordinate>`` (``B__lead`` for a helical joint's slide) with no mass,
+``B__<coordinate>`` (``B__lead`` for a helical joint's slide, ``B__x``, ``B__y``,
+``B__z`` for a floating joint's) with no mass,
 whose joint is that part; the joint's ``origin`` and ``rpy`` place the first
 part, and ``B`` itself carries the last.  An actuator on a part names its link
 (``joint: B__x``); on the last part, the body (``joint: B``).
+
+A floating joint's coordinates are ``[x, y, z, qw, qx, qy, qz]`` and its speeds
+``[wx, wy, wz]`` (defaults ``B_x`` ... ``B_qw`` ... ``B_wx`` ...); x, y, z not
+listed under ``coordinates`` start at 0, the quaternion as a spherical joint's.
 """
 from __future__ import annotations
 
 import sympy as sp
 
-from ..joints import COMPOUND_TYPES, JOINT_TYPES, Compound, Helical, Universal
-from ..robot import Body, Joint, JointLimits
+from ..joints import (COMPOUND_TYPES, JOINT_TYPES, Compound, Floating, Helical, Prismatic,
+                      Universal)
+from ..names import ANGULAR, QUATERNION
+from ..robot import Coordinate, Joint, JointLimits
 from .cursor import Cursor
 from .forces import JOINT_FORCE_KEYS
 
 #: the keys a compound joint takes (forces and limits: helical only, on its turn)
 COMPOUND_KEYS = ("type", "axis", "axis2", "pitch", "origin", "rpy", "coordinates",
-                 "displacement", "limits", *JOINT_FORCE_KEYS)
+                 "speeds", "displacement", "limits", *JOINT_FORCE_KEYS)
+#: a floating joint's position coordinates, by default <body>_x, <body>_y, <body>_z
+POSITION = ("x", "y", "z")
 #: the name of the link that carries a helical joint's slide
 LEAD = "lead"
 
@@ -35,9 +45,12 @@ class _Compound:
         joint = cursor.mapping(COMPOUND_KEYS, required=("type",))
         kind: Compound = COMPOUND_TYPES[joint["type"].value]
         word = kind.word
-        for key, allowed in (("axis2", Universal), ("pitch", Helical)):
+        for key, allowed in (("axis2", Universal), ("pitch", Helical), ("speeds", Floating)):
             if key in joint and not isinstance(kind, allowed):
                 raise joint[key].error(f"only a {allowed.word} joint has {key!r}; remove it")
+        if isinstance(kind, Floating) and "axis" in joint:
+            raise joint["axis"].error("a floating joint has no axis: it slides along and turns "
+                                      "about every axis; remove it")
         if not isinstance(kind, Helical):
             for key in ("displacement", "limits", *JOINT_FORCE_KEYS):
                 if key in joint:
@@ -55,7 +68,8 @@ class _Compound:
             if float(cross.norm()) < 1e-6:
                 raise joint["axis2"].error("axis2 must not be parallel to axis (a universal "
                                            "joint turns about two different axes)")
-        coordinates = self.compound_coordinates(joint, kind, cursor)
+        coordinates = self.floating_coordinates(joint, name, cursor) \
+            if isinstance(kind, Floating) else self.compound_coordinates(joint, kind, cursor)
         pitch = sp.Integer(0)
         if isinstance(kind, Helical):
             if "pitch" not in joint:
@@ -72,6 +86,14 @@ class _Compound:
         links, above = [], parent
         for k, (part, part_axis, taken) in enumerate(parts):
             last = k == len(parts) - 1
+            if JOINT_TYPES[part].orientation:
+                speeds = self.floating_speeds(joint, name)
+                links.append((name, above, self.ball(
+                    name, origin if k == 0 else zero, rpy if k == 0 else zero,
+                    [str(c) for c in coordinates[taken:taken + 4]], speeds,
+                    joint.get("coordinates") or cursor, joint.get("speeds") or cursor, units)))
+                continue
+            part_axis = tuple(sp.Integer(a) if isinstance(a, int) else a for a in part_axis)
             displacement = coordinates[taken] if taken is not None else pitch * coordinates[0]
             if taken is not None:
                 for symbol in displacement.free_symbols & set(self.q.values()):
@@ -81,7 +103,9 @@ class _Compound:
                 extra = self.joint_forces(joint, JOINT_TYPES[part])
                 extra["limits"] = self.limits(joint["limits"]) if "limits" in joint \
                     else JointLimits()
-            link = name if last else f"{name}__{LEAD if taken is None else coordinates[taken]}"
+            part_name = LEAD if taken is None else \
+                POSITION[taken] if isinstance(kind, Floating) else coordinates[taken]
+            link = name if last else f"{name}__{part_name}"
             if not last and link in self.kinds:
                 raise cursor.error(f"the {word} joint of {name!r} needs a link named "
                                    f"{link!r}, which is already {self.kinds[link]}; rename it")
@@ -89,6 +113,30 @@ class _Compound:
                                              rpy if k == 0 else zero, displacement, **extra)))
             above = link
         return links
+
+    def floating_coordinates(self, joint: dict[str, Cursor], body: str,
+                             cursor: Cursor) -> list[sp.Expr]:
+        """A floating joint's seven coordinates (given or default): x, y, z as
+        coordinate symbols (those not declared under ``coordinates`` added here,
+        starting at 0), then the quaternion's four names as symbols (the spherical
+        part claims them)."""
+        names = self.listed_names(joint.get("coordinates"), body, (*POSITION, *QUATERNION),
+                                  "coordinates", Floating.word)
+        place = joint.get("coordinates") or cursor
+        for name in names[:3]:
+            if name not in self.q:
+                for claimed, what in ((name, "a coordinate"),
+                                      ("d" + name, f"the rate of coordinate {name!r}"),
+                                      ("dd" + name, f"the acceleration of coordinate {name!r}")):
+                    self.claim(place, claimed, what)
+                self.q[name] = sp.Symbol(name, real=True)
+                self.added_coordinates.append(Coordinate(name, sp.Integer(0), sp.Integer(0),
+                                                         Prismatic.unit))
+        return [sp.Symbol(name, real=True) for name in names]
+
+    def floating_speeds(self, joint: dict[str, Cursor], body: str) -> list[str]:
+        """A floating joint's angular speeds (given or default <body>_wx ...)."""
+        return self.listed_names(joint.get("speeds"), body, ANGULAR, "speeds", Floating.word)
 
     def compound_coordinates(self, joint: dict[str, Cursor], kind: Compound,
                              cursor: Cursor) -> list[sp.Expr]:

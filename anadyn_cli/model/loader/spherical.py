@@ -67,8 +67,8 @@ class _Spherical:
             if key not in SPHERICAL_KEYS:
                 raise fields[key].error(f"unknown key for a spherical joint; allowed: "
                                         f"{', '.join(SPHERICAL_KEYS)}")
-        names = self._names(fields.get("coordinates"), body, QUATERNION, "coordinates")
-        speeds = self._names(fields.get("speeds"), body, ANGULAR, "speeds")
+        names = self.listed_names(fields.get("coordinates"), body, QUATERNION, "coordinates")
+        speeds = self.listed_names(fields.get("speeds"), body, ANGULAR, "speeds")
         return self.ball(body, self.constant_vector(fields.get("origin")),
                          self.constant_vector(fields.get("rpy")), names, speeds,
                          fields.get("coordinates") or cursor, fields.get("speeds") or cursor,
@@ -109,19 +109,19 @@ class _Spherical:
                      coordinates=tuple(names),
                      speeds=tuple(Speed(n, initial[n], kind.speed_unit) for n in speeds))
 
-    def _names(self, cursor: Cursor | None, body: str, parts: tuple[str, ...],
-               key: str) -> list[str]:
-        """The joint's ``key`` names (``parts`` many, distinct identifiers), or the
-        defaults <body>_<part>."""
+    def listed_names(self, cursor: Cursor | None, body: str, parts: tuple[str, ...],
+                     key: str, word: str = "spherical") -> list[str]:
+        """The ``key`` names of body ``body``'s ``word`` joint (``parts`` many, distinct
+        identifiers), or the defaults <body>_<part>."""
         if cursor is None:
             return [f"{body}_{part}" for part in parts]
         items = cursor.sequence()
         if len(items) != len(parts):
-            raise cursor.error(f"a spherical joint has {len(parts)} {key} "
+            raise cursor.error(f"a {word} joint has {len(parts)} {key} "
                                f"({', '.join(parts)}), got {len(items)}")
         names = [item.identifier(f"{key[:-1]} name") for item in items]
         if len(set(names)) != len(names):
-            raise cursor.error(f"the {key} of a spherical joint must be different names")
+            raise cursor.error(f"the {key} of a {word} joint must be different names")
         return names
 
     def spherical_state(self, top: dict[str, Cursor], bodies: tuple[Body, ...],

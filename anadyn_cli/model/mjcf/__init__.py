@@ -33,13 +33,16 @@ The mapping (``importer``), computed as MuJoCo's compiler computes it:
   ``settotalmass``, ``boundmass``, ``boundinertia`` and ``inertiagrouprange``
   as MuJoCo applies them;
 - <option gravity> and <flag gravity|spring|damper="disable">;
-- <actuator>: motor, position and velocity on joints, with their gear,
-  ctrlrange and forcerange; the control u is a controller gain (0) and each
-  actuator's effort a law (``_Importer.actuators``).
+- <actuator>: motor, position and velocity on joints, with their gear (the
+  actuator's ``drive: {gear}``), ctrlrange and forcerange; the control u is a
+  controller gain (0) and each actuator's effort (MuJoCo's actuator_force) a law
+  (``_Importer.actuators``).
 
-Refused, one line each: free joints (welded by ``fix_base`` on a body of the
-world body) and ball joints until anadyn has floating and spherical joints,
-tendons, equality constraints, composites, plugins, mocap bodies, gravcomp,
+Free joints import as anadyn's floating joints (welded by ``fix_base`` on a body
+of the world body), ball joints as spherical ones, with MuJoCo's qpos and qvel as
+their coordinates and speeds (``_Importer.several_joint``).
+
+Refused, one line each: forces and actuators on ball and free joints, tendons, equality constraints, composites, plugins, mocap bodies, gravcomp,
 springdamper, mesh geoms (and shellinertia) without an <inertial>, other
 actuators.  Ignored: sites, cameras, lights, assets,
 sensors, contacts, keyframes, visuals.

@@ -60,3 +60,27 @@ def xyaxes(values) -> np.ndarray:
     y = y - x * (x @ y)
     y = y / np.linalg.norm(y)
     return np.column_stack([x, y, np.cross(x, y)])
+
+
+def quaternion_of(R) -> list[float]:
+    """The unit quaternion (w, x, y, z), w >= 0, of the rotation matrix R (Shepperd's
+    method: from the largest of the four squared components)."""
+    R = np.asarray(R, dtype=float)
+    trace = np.trace(R)
+    squares = [1 + trace, 1 + 2 * R[0, 0] - trace, 1 + 2 * R[1, 1] - trace,
+               1 + 2 * R[2, 2] - trace]
+    k = int(np.argmax(squares))
+    root = math.sqrt(squares[k])
+    pairs = (R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1],
+             R[0, 1] + R[1, 0], R[0, 2] + R[2, 0], R[1, 2] + R[2, 1])
+    if k == 0:
+        q = [root, pairs[0] / root, pairs[1] / root, pairs[2] / root]
+    elif k == 1:
+        q = [pairs[0] / root, root, pairs[3] / root, pairs[4] / root]
+    elif k == 2:
+        q = [pairs[1] / root, pairs[3] / root, root, pairs[5] / root]
+    else:
+        q = [pairs[2] / root, pairs[4] / root, pairs[5] / root, root]
+    q = np.array(q) / 2
+    q = q / np.linalg.norm(q)
+    return list(q if q[0] >= 0 else -q)

@@ -12,8 +12,8 @@ import numpy as np
 
 from ... import __version__
 from ...errors import ModelError, display_name
-from ..joints import Prismatic, Revolute
-from ..names import GROUND
+from ..joints import Floating, Prismatic, Revolute, Spherical
+from ..names import ANGULAR, GROUND, QUATERNION
 from ..robottext import SMALLEST, Numbers, _angle, _format, _Names, render
 from ..urdf.frames import _snap, compose, matrix_rpy
 from ..urdf.importer import Imported
@@ -23,6 +23,8 @@ from .source import _Reader
 
 #: MJCF joint types anadyn represents -> its joint type word (``model.joints``)
 JOINTS = {"hinge": Revolute.word, "slide": Prismatic.word}
+#: the MJCF joints of several coordinates (``several_joint``)
+SEVERAL = ("ball", "free")
 #: elements inside a <body> that carry no dynamics here (drawn or sensed only)
 IGNORED_IN_BODY = ("site", "camera", "light")
 #: top-level elements that carry no rigid-body dynamics (contact is the contact issue's)
@@ -44,14 +46,16 @@ class _Body:
 
 
 def import_file(path: str | Path, fix_base: bool = False, inertia: str = "refuse",
-                lock=()) -> Imported:
+                lock=(), floating_base: bool = False) -> Imported:
     """Read and import the MJCF model at ``path``; ``fix_base`` welds a ``free`` joint
-    of a body on the world body to the world where the body is placed.  ``inertia``
-    and ``lock`` (the URDF reading options) must keep their defaults: an MJCF model
-    is imported whole, and an inertia no rigid body has is refused."""
+    of a body on the world body to the world where the body is placed.  ``inertia``,
+    ``lock`` and ``floating_base`` (the URDF reading options) must keep their
+    defaults: an MJCF model is imported whole (a free body has its free joint), and
+    an inertia no rigid body has is refused."""
     shown = display_name(path)
-    if inertia != "refuse" or lock:
-        flag = "--lock" if lock else f"--inertia {inertia}"
+    if inertia != "refuse" or lock or floating_base:
+        flag = "--lock" if lock else "--floating-base" if floating_base else \
+            f"--inertia {inertia}"
         raise ModelError(f"{flag}: this option says how a URDF file is read; MJCF models are "
                          "imported whole, their impossible inertias refused", source=shown)
     root, shown = source.load(Path(path))
@@ -67,7 +71,9 @@ class _Importer(Numbers, _Reader):
         self.names = _Names()
         self.bodies: list[_Body] = []
         self.coordinates: dict[str, tuple[str, float]] = {}   # MJCF joint -> (q, initial)
-        self.kinds: dict[str, str] = {}                       # MJCF joint -> hinge / slide
+        self.kinds: dict[str, str] = {}                       # MJCF joint -> its type
+        #: MJCF ball and free joint -> (their coordinates, initial values)
+        self.several: dict[str, tuple[list[str], list[float]]] = {}
         self.rotors: list[dict] = []
         self.welded: list[str] = []                           # MJCF bodies on the world
         self.static_mass: list[MassProperties] = []
@@ -222,12 +228,12 @@ class _Importer(Numbers, _Reader):
                 self.warnings.append(f"{self.source}: {where}: free joint welded to the world "
                                      "(--fix-base)")
                 return owner, pending
-            raise self.error(where, f"a {kind} joint (6 degrees of freedom): anadyn has no "
-                             "floating joints yet; --fix-base welds a free joint of a body on "
-                             "the world body where the body is placed")
-        if kind == "ball":
-            raise self.error(where, "a ball joint (3 rotations): anadyn has no spherical "
-                                    "joints yet")
+            if owner != GROUND:
+                raise self.error(where, "a free joint on a body that is not on the world body "
+                                        "(MuJoCo allows it only there)")
+        if kind in SEVERAL:
+            return self.several_joint(element, kind, name, body, owner, pending, cls, last,
+                                      frame, where)
         R, t = pending
         p = self.numbers(element, "pos", 3, where, "0 0 0", cls)
         axis = self.numbers(element, "axis", 3, where, "0 0 1", cls)
@@ -264,6 +270,45 @@ class _Importer(Numbers, _Reader):
         anadyn_name = self.names.body(body if last else f"{body}_{name}")
         self.bodies.append(_Body(anadyn_name, owner, spec, name, body))
         return anadyn_name, (np.eye(3), after)
+
+    def several_joint(self, element, kind: str, name: str, body: str, owner: str, pending,
+                      cls: str, last: bool, frame, where: str):
+        """A ball joint (anadyn's spherical: the quaternion and the angular velocity in
+        body axes, MuJoCo's qpos and qvel) turning about its ``pos`` in the body, or a
+        free joint (anadyn's floating: x, y, z and the quaternion, MuJoCo's qpos, the
+        body's placement at the start; speeds the origin's velocity in the world and
+        the angular velocity in body axes, MuJoCo's qvel).  Neither takes forces,
+        limits or actuators here."""
+        for key in ("damping", "stiffness", "frictionloss", "armature"):
+            if self.number(element, key, where, "0", cls):
+                raise self.error(where, f'{key}="{self.get(element, key, cls)}" on a {kind} '
+                                        "joint: not imported (anadyn's joint forces act along "
+                                        "one coordinate)")
+        R, t = pending
+        stem = self.names.coordinate(name)
+        if kind == "free":
+            spec = {"type": Floating.word}
+            initial = [*t, *frames.quaternion_of(R)]
+            parts, after = ("x", "y", "z", *QUATERNION), (np.eye(3), np.zeros(3))
+        else:
+            p = self.numbers(element, "pos", 3, where, "0 0 0", cls)
+            if frame is not None:
+                p = frame[1] + frame[0] @ p
+            spec, initial = {"type": Spherical.word}, [1, 0, 0, 0]
+            parts, after = QUATERNION, (np.eye(3), -p)
+            origin, rpy = _snap(t + R @ p), _snap(matrix_rpy(R), math.pi)
+            if origin.any():
+                spec["origin"] = self.vector(origin)
+            if rpy.any():
+                spec["rpy"] = [_angle(self.value(a)) for a in rpy]
+        names = [self.names.coordinate(f"{stem}_{part}") for part in parts]
+        speeds = [self.names.coordinate(f"{stem}_{part}") for part in ANGULAR]
+        spec.update(coordinates=names, speeds=speeds)
+        self.several[name] = (names, [self.value(v) for v in initial])
+        self.kinds[name] = kind
+        anadyn_name = self.names.body(body if last else f"{body}_{name}")
+        self.bodies.append(_Body(anadyn_name, owner, spec, name, body))
+        return anadyn_name, after
 
     def joint_forces(self, element, kind: str, angle: float, where: str, cls: str) -> dict:
         spec = {}
@@ -404,10 +449,11 @@ class _Importer(Numbers, _Reader):
 
     # -- actuators ---------------------------------------------------------------------------
     def actuators(self, root):
-        """{actuator: {joint: body}}, {actuator: law} and {gain: value}, as MuJoCo
-        computes an actuator's force on a joint: the control u (a gain, 0) clamped to
+        """{actuator: {joint: body, drive: {gear}}}, {actuator: law} and {gain: value}, as
+        MuJoCo computes an actuator's force: the control u (a gain, 0) clamped to
         ctrlrange, the force (motor: u; position servo: kp (u - gear q) - kv gear dq;
-        velocity servo: kv (u - gear dq)) clamped to forcerange, times gear."""
+        velocity servo: kv (u - gear dq)) clamped to forcerange is the law (MuJoCo's
+        actuator_force); its gear is the drive's (the force on the joint: gear times it)."""
         owners = {b.mjcf_joint: b.name for b in self.bodies}
         actuators, laws, gains = {}, {}, {}
         for section in root.findall("actuator"):
@@ -421,19 +467,19 @@ class _Importer(Numbers, _Reader):
                 if joint is None:
                     raise self.error(where, "anadyn imports actuators on a joint (joint=\"...\"),"
                                             " not on tendons, sites or bodies")
-                if joint not in owners:
+                if joint not in owners or joint in self.several:
                     raise self.error(where, f'joint="{joint}": no hinge or slide joint of '
-                                            "this name")
+                                            "this name (anadyn's actuators act along one "
+                                            "coordinate)")
                 gear = self.numbers(element, "gear", (1, 6), where, "1")[0]
                 actuator, control = self.identifier(name, "u_"), self.identifier(f"u_{name}", "u_")
-                actuators[actuator] = {"joint": owners[joint]}
+                actuators[actuator] = {"joint": owners[joint], **(     # the gear: a drive's
+                    {"drive": {"gear": self.value(gear)}} if gear != 1 else {})}
                 gains[control] = 0
                 force = self.force(element, self.clamped(element, "ctrl", control, where),
                                    self.coordinates[joint][0], gear, where)
                 force = self.clamped(element, "force", force, where)
-                whole = force == control or force.startswith("min(max(")   # one term
-                laws[actuator] = force if gear == 1 else (
-                    f"{_format(self.value(gear))}*{force if whole else f'({force})'}")
+                laws[actuator] = force
         return actuators, laws, gains
 
     def force(self, element, u: str, q: str, gear: float, where: str) -> str:
@@ -506,6 +552,8 @@ class _Importer(Numbers, _Reader):
                              "(MuJoCo adds armature to the mass matrix's diagonal); its mass "
                              "stays on its fixed axis and does nothing"])
         coordinates = {q: {"initial": self.value(ref)} for q, ref in self.coordinates.values()}
+        coordinates.update({q: {"initial": value} for names, values in self.several.values()
+                            for q, value in zip(names, values)})
         model = root.get("model") or Path(self.source).stem
         data = {"name": self.names.robot(Path(self.source).stem),
                 "description": f"MJCF model {model!r} from {Path(self.source).name}: "
@@ -526,14 +574,17 @@ class _Importer(Numbers, _Reader):
                   "joint's ref is the coordinate's initial value:"]
         header += [f"  {q}: {self.kinds[joint]} {joint!r}"
                    for joint, (q, _) in self.coordinates.items()]
+        header += [f"  {', '.join(names)}: {self.kinds[joint]} {joint!r} (MuJoCo's qpos; "
+                   "speeds: its qvel)" for joint, (names, _) in self.several.items()]
         if self.welded:
             header.append("Fixed to the world (their mass does not move): "
                           + ", ".join(self.welded) + ".")
         if actuators:
             header.append("Actuators: MuJoCo's control u_<actuator> is a gain (0), clamped to "
                           "ctrlrange; the force (motor: u; position: kp*(u - gear*q) - "
-                          "kv*gear*dq; velocity: kv*(u - gear*dq)) clamped to forcerange, "
-                          "times gear, is the effort on the joint.")
+                          "kv*gear*dq; velocity: kv*(u - gear*dq)) clamped to forcerange "
+                          "is the effort (MuJoCo's actuator_force); the drive's gear times "
+                          "it acts on the joint.")
         header.append(f"Gravity ({', '.join(_format(self.value(g)) for g in gravity)}) m/s^2 "
                       "in world axes (<option gravity>).")
         header.extend(f"warning: {w.split(': ', 1)[1]}" for w in self.warnings)

@@ -32,6 +32,8 @@ convention, so joints carry over number for number:
   at all (none on its link or beyond) is refused, naming every such joint;
 - <limit> -> joint ``limits: {lower, upper, velocity, effort}``;
   <dynamics damping friction> -> joint ``damping``, ``friction``;
+- a <transmission> of one joint and one actuator with a <mechanicalReduction>
+  N other than 1 -> that joint's actuator ``drive: {gear: N}`` (``transmission``);
 - the child link's <inertial>: com = origin xyz, inertia = R I R^T with R
   the rotation of origin rpy (central inertia in body axes);
 - gravity: 9.81 m/s^2 along -z of the root link, the URDF convention.

@@ -8,12 +8,18 @@ import math
 from pathlib import Path
 
 from ... import __version__
-from ..joints import JOINT_TYPES
-from ..names import GROUND
+from ..joints import COMPOUND_TYPES, JOINT_TYPES, Compound, Floating
+from ..names import ANGULAR, GROUND, QUATERNION
 from ..robottext import SMALLEST, Numbers, _angle, _format, _key
 from .frames import IDENTITY, _snap, compose, matrix_rpy
 from .inertia import combine
 from .parse import _Joint
+from .tree import WORLD
+
+#: joint type -> the parts that name the coordinates and speeds of a floating or planar
+#: joint (``several_names``)
+COORDINATES = {Floating.word: (("x", "y", "z", *QUATERNION), ANGULAR),
+               "planar": (("x", "y", "theta"), ())}
 
 
 class _Emit(Numbers):
@@ -49,7 +55,7 @@ class _Emit(Numbers):
             return self.value((lower + upper) / 2)
         return 0
 
-    def body(self, joint, owner, pose, parts, links, body_name, q, masters) -> dict:
+    def body(self, joint, owner, pose, parts, links, body_name, q, masters, several) -> dict:
         where = f"joint {joint.name!r}"
         parent = owner[joint.parent]
         placement = pose[joint.parent]
@@ -65,8 +71,16 @@ class _Emit(Numbers):
             spec["origin"] = self.vector(origin)
         if rpy.any():
             spec["rpy"] = [_angle(self.value(a)) for a in rpy]
-        spec["axis"] = self.vector(joint.axis)
-        spec["displacement"] = self.displacement(joint, q, masters)
+        if joint.name in several:                      # a floating or planar joint
+            names, speeds = several[joint.name]
+            if joint.kind.word != Floating.word:
+                spec["axis"] = self.vector(joint.axis)
+            spec["coordinates"] = names
+            if speeds:
+                spec["speeds"] = speeds
+        else:
+            spec["axis"] = self.vector(joint.axis)
+            spec["displacement"] = self.displacement(joint, q, masters)
         if joint.limit:
             spec["limits"] = {k: self.value(joint.limit[k])
                               for k in ("lower", "upper", "velocity", "effort") if k in joint.limit}
@@ -93,15 +107,26 @@ class _Emit(Numbers):
         offset = self.value(abs(c))
         return f"{term} {'+' if c > 0 else '-'} {_format(offset)}" if offset else term
 
-    def description(self, root, coordinates, moving, masters) -> str:
-        kinds = [(kind.word, sum(j.kind is kind for j in coordinates))
-                 for kind in JOINT_TYPES.values()]
+    def several_names(self, joint: _Joint, body: str, names) -> tuple[list[str], list[str]]:
+        """The coordinates and speeds of a floating or planar joint (``COORDINATES``),
+        named after the joint (after its body for the one --floating-base adds)."""
+        stem = joint.name or body
+        coordinates, speeds = COORDINATES[joint.kind.word]
+        return ([names.coordinate(f"{stem}_{part}") for part in coordinates],
+                [names.coordinate(f"{stem}_{part}") for part in speeds])
+
+    def description(self, root, coordinates, moving, masters, several) -> str:
+        kinds = [(kind.word, sum(j.kind is kind for j in moving if j in coordinates
+                                 or isinstance(j.kind, Compound)))
+                 for kind in (*JOINT_TYPES.values(), *COMPOUND_TYPES.values())]
         counted = ", ".join(f"{n} {k}" for k, n in kinds if n)
         mimic = f", {len(masters)} mimic joint{'s' if len(masters) > 1 else ''}" if masters else ""
+        count = len(coordinates) + sum(len(listed) for listed, _ in several.values())
         return (f"URDF robot {root.get('name') or '?'!r} from {Path(self.source).name}: "
-                f"{len(coordinates)} coordinates ({counted}){mimic}, {len(moving)} bodies")
+                f"{count} coordinates ({counted}){mimic}, {len(moving)} bodies")
 
-    def header(self, base, base_links, coordinates, masters, q, joints, locks) -> list[str]:
+    def header(self, base, base_links, coordinates, masters, q, joints, locks,
+               several) -> list[str]:
         flags = self.options.flags()
         lines = [f"Imported by anadyn {__version__} from {Path(self.source).name} "
                  f"(`anadyn import{' ' + flags if flags else ''}`); edit freely.",
@@ -110,6 +135,11 @@ class _Emit(Numbers):
         for joint in coordinates:
             renamed = f" (URDF joint {joint.name!r})" if q[joint.name] != joint.name else ""
             lines.append(f"  {q[joint.name]}: {joint.type}{renamed}")
+        for name, (listed, speeds) in several.items():
+            what = (f"URDF joint {name!r}" if name else
+                    "added by --floating-base between the world and the root link")
+            lines.append(f"  {', '.join(listed)}: {joints[name].type} ({what}; no actuator)"
+                         + (f", speeds {', '.join(speeds)} (body axes)" if speeds else ""))
         for name in masters:
             lines.append(f"  mimic joint {name!r}: displacement "
                          f"{self.displacement(joints[name], q, masters)} (no coordinate, "
@@ -120,8 +150,11 @@ class _Emit(Numbers):
             lines.extend(f"  {name}: {joints[name].type} at {_format(value)} "
                          f"{joints[name].kind.unit}" for name, value in locks.items())
         fixed = ", ".join(name for name, _ in base_links)
-        lines.append(f"Base (fixed to the world, its mass does not move): link {base!r}"
-                     + (f" and the links fixed to it: {fixed}" if fixed else "") + ".")
+        if base == WORLD:
+            lines.append(f"Base: link {joints[WORLD].child!r}, free (--floating-base).")
+        else:
+            lines.append(f"Base (fixed to the world, its mass does not move): link {base!r}"
+                         + (f" and the links fixed to it: {fixed}" if fixed else "") + ".")
         lines.append("Gravity 9.81 m/s^2 along -z of the base (URDF convention).")
         lines.extend(f"warning: {w.split(': ', 1)[1]}" for w in self.warnings)
         return lines

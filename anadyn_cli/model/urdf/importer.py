@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...errors import display_name
+from ..joints import Compound
 from ..names import GROUND
 from ..robottext import _format, _Names, render
 from .emit import _Emit
@@ -16,6 +17,7 @@ from .inertia import _InertiaPolicy
 from .options import READING, ReadingOptions
 from .parse import _Reader, _parsed, read_urdf
 from .reduce import _Reduce
+from . import transmission
 from .tree import _Tree, _listed
 
 GRAVITY = 9.81                    # m/s^2 along -z of the root link (URDF, ROS, Pinocchio)
@@ -50,19 +52,20 @@ def place(text: str, path: str | None) -> str | None:
 
 
 def import_file(path: str | Path, fix_base: bool = False, inertia: str = "refuse",
-                lock=()) -> Imported:
+                lock=(), floating_base: bool = False) -> Imported:
     """Read and import the URDF file at ``path`` (named by ``display_name``)."""
     return import_urdf(read_urdf(path), display_name(path), fix_base=fix_base,
-                       inertia=inertia, lock=lock)
+                       inertia=inertia, lock=lock, floating_base=floating_base)
 
 
 def import_urdf(raw: bytes | str, source: str, fix_base: bool = False,
-                inertia: str = "refuse", lock=()) -> Imported:
+                inertia: str = "refuse", lock=(), floating_base: bool = False) -> Imported:
     """Import URDF text; ``source`` names it in messages and (its file name) in the
     header.  ``lock``: {joint: value} or ((joint, value), ...), the joints held at a
     value (number or expression text, e.g. ``pi/4``): a reduced robot, as
-    Pinocchio's ``buildReducedModel`` makes it (ReadingOptions)."""
-    options = ReadingOptions(fix_base, inertia, tuple(dict(lock).items()))
+    Pinocchio's ``buildReducedModel`` makes it; ``floating_base``: the root link
+    free, as Pinocchio's ``JointModelFreeFlyer`` root makes it (ReadingOptions)."""
+    options = ReadingOptions(fix_base, inertia, tuple(dict(lock).items()), floating_base)
     return _Importer(source, options).run(_parsed(raw, source, options))
 
 
@@ -125,23 +128,34 @@ class _Importer(_Emit, _Reduce, _Tree, _InertiaPolicy, _Reader):
                 f" ({fix}{' ...' if len(lockable) > 4 else ''})" if lockable else ""))
         names = _Names()
         robot_name = names.robot(Path(self.source).stem)     # results/NAME, as for YAML
-        coordinates = [j for j in moving if j.name not in masters]
+        coordinates = [j for j in moving if j.name not in masters
+                       and not isinstance(j.kind, Compound)]
         q = {j.name: names.coordinate(j.name) for j in coordinates}
         body_name = {j.child: names.body(j.child) for j in moving}
+        several = {j.name: self.several_names(j, body_name[j.child], names)
+                   for j in moving if isinstance(j.kind, Compound)}
         bodies, comments = [], []
         for joint in moving:
             parts = [(joint.child, None)] + folded[joint.child]
-            bodies.append(self.body(joint, owner, pose, parts, links, body_name, q, masters))
+            bodies.append(self.body(joint, owner, pose, parts, links, body_name, q, masters,
+                                    several))
             comments.append(self.body_comment(joint, parts, pose, body_name))
         tau = {j.name: names.actuator(q[j.name]) for j in coordinates}
+        gears = transmission.gears(root, self)        # <transmission>: drive gear ratios
+        free = {name: {"initial": int(k == 3 and bool(speeds))}    # a quaternion's qw: 1
+                for listed, speeds in several.values() for k, name in enumerate(listed)}
         data = {
             "name": robot_name,
-            "description": self.description(root, coordinates, moving, masters),
+            "description": self.description(root, coordinates, moving, masters, several),
             "gravity": [0, 0, -GRAVITY],
-            "coordinates": {q[j.name]: {"initial": self.initial(j)} for j in coordinates},
+            "coordinates": {**{q[j.name]: {"initial": self.initial(j)} for j in coordinates},
+                            **free},
             "bodies": bodies,
-            "actuators": {tau[j.name]: {"joint": body_name[j.child]} for j in coordinates},
+            "actuators": {tau[j.name]: {"joint": body_name[j.child], **gears.get(j.name, {})}
+                          for j in coordinates},
         }
+        if not data["actuators"]:
+            del data["actuators"]
         places = {"": f"<robot name={root.get('name')!r}>",
                   "name": f"the file name {Path(self.source).name!r}",
                   **{f"bodies[{i}]": f"joint {j.name!r} (child link {j.child!r})"
@@ -149,8 +163,10 @@ class _Importer(_Emit, _Reduce, _Tree, _InertiaPolicy, _Reader):
                   **{f"coordinates.{q[j.name]}": f"joint {j.name!r}" for j in coordinates},
                   **{f"actuators.{tau[j.name]}": f"joint {j.name!r}" for j in coordinates}}
         self.collect_notes()
-        header = self.header(base, folded[GROUND], coordinates, masters, q, joints, locks)
-        footer = self.trajectory_hint(coordinates[0], q[coordinates[0].name])
+        header = self.header(base, folded[GROUND], coordinates, masters, q, joints, locks,
+                             several)
+        footer = self.trajectory_hint(coordinates[0], q[coordinates[0].name]) \
+            if coordinates else ""
         text = render(data, header, comments) + footer
         _PLACES[text] = places
         while len(_PLACES) > 8:

@@ -1,4 +1,5 @@
-"""How a URDF is read: ``ReadingOptions`` (--fix-base, --inertia, --lock), the
+"""How a URDF is read: ``ReadingOptions`` (--fix-base, --floating-base, --inertia,
+--lock), the
 ``READING`` a command sets for its run, and the texts of ``--lock``."""
 from __future__ import annotations
 
@@ -17,14 +18,18 @@ class ReadingOptions:
     """How a URDF is read (the flags of the same names): ``fix_base`` welds the
     floating or planar joint that carries the root link; ``inertia`` is the policy
     for impossible inertias (INERTIA_POLICIES); ``lock`` is ((joint, value), ...),
-    the joints held at a value (a number, or its text: ``0.5``, ``pi/4``)."""
+    the joints held at a value (a number, or its text: ``0.5``, ``pi/4``);
+    ``floating_base`` frees the root link: a floating joint between the world and
+    it (Pinocchio's ``JointModelFreeFlyer`` root), where a URDF fixes it."""
     fix_base: bool = False
     inertia: str = "refuse"
     lock: tuple[tuple[str, float | str], ...] = ()
+    floating_base: bool = False
 
     def flags(self) -> str:
         """The options as command-line flags ('' for the defaults)."""
         words = (["--fix-base"] if self.fix_base else []) + (
+            ["--floating-base"] if self.floating_base else []) + (
             [f"--inertia {self.inertia}"] if self.inertia != "refuse" else [])
         return " ".join(words + [f"--lock {name}={value}" for name, value in self.lock])
 

@@ -3,6 +3,7 @@ fixed joints folded into the body before them, and the joints that move no mass.
 from __future__ import annotations
 
 from ...errors import ModelError
+from ..joints import Compound
 from ..names import GROUND
 from .frames import IDENTITY, compose
 from .options import _lock_value
@@ -26,6 +27,9 @@ class _Reduce:
                 raise self.error(None, f"{shown}: {what}; the joints that can be locked are "
                                        f"{_listed(movable, 8)}")
             where = f"joint {name!r}"
+            if isinstance(joint.kind, Compound):
+                raise self.error(where, f"{shown}: a {joint.type} joint has several "
+                                        "coordinates and cannot be locked at one value")
             if name in masters:
                 raise self.error(where, f"{shown}: the joint mimics {masters[name][0]!r}; lock "
                                         "that joint (its mimics follow it)")

@@ -1,9 +1,17 @@
 """The link/joint tree of a URDF: one root link, no closed loops, floating and
-planar joints welded (--fix-base) or refused, joints in tree order, mimic chains
-resolved."""
+planar joints imported as anadyn's (or the one that carries the root link welded,
+--fix-base), the root link freed (--floating-base), joints in tree order, mimic
+chains resolved."""
 from __future__ import annotations
 
+import numpy as np
+
+from ..joints import COMPOUND_TYPES, Floating
 from .parse import WELDED, _Joint, _Link
+
+#: the name of the world link and of the joint that --floating-base puts between it and
+#: the root link (a URDF name is never empty)
+WORLD = ""
 
 
 class _Tree:
@@ -34,7 +42,25 @@ class _Tree:
             parent_joint[joint.child] = joint
         base = self.root(links, joints, parent_joint)
         self.free_joints(joints, base)
+        if self.options.floating_base:
+            base = self.freed(joints, base)
         return links, joints, base
+
+    def freed(self, joints: dict[str, _Joint], base: str) -> str:
+        """--floating-base: a floating joint between the world (WORLD) and the root
+        link, which becomes a body; the world is the new root.  A root link that a
+        floating joint of the file already carries is left as it is, with a warning."""
+        carried = [j.name for j in joints.values() if j.parent == base
+                   and isinstance(j.kind, Floating)]
+        if carried:
+            self.warnings.append(f"{self.source}: --floating-base: the root link {base!r} "
+                                 f"already carries the floating joint {carried[0]!r}; no "
+                                 "joint added")
+            return base
+        zero = np.zeros(3)
+        joints[WORLD] = _Joint(WORLD, Floating.word, COMPOUND_TYPES[Floating.word], WORLD, base,
+                               zero, zero, zero, {}, {}, None)
+        return WORLD
 
     def root(self, links, joints, parent_joint) -> str:
         roots = [name for name in links if name not in parent_joint]
@@ -47,8 +73,8 @@ class _Tree:
         return roots[0]
 
     def free_joints(self, joints: dict[str, _Joint], base: str) -> None:
-        """Floating and planar joints: the one that carries the root link welded by
-        fix_base, every other refused."""
+        """Floating and planar joints: anadyn's joints of the same names
+        (``model.joints``), but the one that carries the root link, welded by fix_base."""
         carrying = [j.name for j in joints.values() if j.kind is None and j.parent == base]
         if self.fix_base and not carrying:
             self.warnings.append(f"{self.source}: --fix-base: no floating or planar joint "
@@ -68,12 +94,10 @@ class _Tree:
                                      "the joint's origin puts it (--fix-base)")
                 joint.kind = WELDED
                 continue
-            hint = (f"; to simulate the robot on a fixed base, import it with --fix-base "
-                    f"(welds link {joint.child!r} to {base!r} where the joint's origin puts it)"
-                    if joint.parent == base else
-                    "; anadyn's joints are revolute, prismatic and fixed")
-            raise self.error(where, f"{joint.type} joints (several degrees of freedom in one "
-                                    f"joint) cannot be imported{hint}")
+            if joint.mimic is not None:
+                raise self.error(where, f"a {joint.type} joint cannot mimic another (it has "
+                                        "several coordinates)")
+            joint.kind = COMPOUND_TYPES[joint.type]
 
     def tree_order(self, base: str, joints) -> list[_Joint]:
         """Joints from the root out, depth first, children in file order; cycles refused."""

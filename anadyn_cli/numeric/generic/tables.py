@@ -49,6 +49,8 @@ def pack(pl) -> tuple[Tables | None, str]:
     """(Tables, "") for ``recursive.plan`` ``pl``, or (None, why not)."""
     if pl.loads:
         return None, "external loads"
+    if pl.contacts:
+        return None, "contacts"
     if not pl.moving or pl.n == 0:
         return None, "no moving joint"
     words = [b.joint_type.word for b in pl.bodies]

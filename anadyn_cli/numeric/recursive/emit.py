@@ -81,10 +81,14 @@ DOCS = {
              "1/2 q (x) (0, w); vectorized).",
     "powers": "[power of the loads, power dissipated by joint damping and friction], W "
               "(recursive velocities; vectorized).",
+    "momentum": "[Px, Py, Pz] (kg m/s) and [Lx, Ly, Lz] (kg m^2/s, about the world "
+                "origin) of a free robot, world axes (recursive velocities; vectorized).",
+    "contacts": "Per contact: normal force, friction along t1 and t2 (N), penetration (m), "
+                "spring energy (J), dissipated power (W) (numeric.contact; vectorized).",
 }
 
 VECTORIZED = {"efforts", "mfb", "inverse_dynamics", "actuation", "potential", "rates",
-              "powers"}
+              "powers", "momentum", "contacts"}
 
 
 def module_source(gen: Generated, header: str = "") -> str:
@@ -115,9 +119,16 @@ def module_source(gen: Generated, header: str = "") -> str:
     lines.append(f"CONSTANT_ACTUATION = {all(x.constant() is not None for row in B for x in row)}")
     lines.append(f"COORDINATES = {tuple(pl.coordinates)!r}")
     lines.append(f"EFFORTS = {tuple(pl.efforts)!r}")
+    if pl.contacts:
+        lines.append(f"CONTACTS = {tuple(c.name for c in pl.contacts)!r}")
+        laws = tuple((c.stiffness, c.exponent, pl.bodies[c.body].mass) for c in pl.contacts)
+        lines.append(f"CONTACT_LAWS = {laws!r}   # stiffness, exponent, the body's mass")
     if pl.spherical:          # speeds that are not rates: x = [q, u], dq = W(q) u
         lines.append(f"SPEEDS = {tuple(pl.speeds)!r}")
         lines.append(f"QUATERNIONS = {quaternions(pl)!r}")
+    if "momentum" in gen.functions:     # a free robot: what acts on it from outside
+        lines.append(f"GRAVITY = {tuple(pl.gravity)!r}")
+        lines.append(f"EXTERNAL = {bool(pl.loads or pl.contacts)!r}   # loads or contacts")
     return "\n".join(lines) + "\n"
 
 

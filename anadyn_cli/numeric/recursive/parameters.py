@@ -23,7 +23,8 @@ a parameter p reaches it in three ways, each differentiated exactly:
 
 A parameter is refused (``ModelError``) where it enters what this does not
 differentiate: a joint's axis, rpy, displacement, spring rest position or
-friction velocity, a load's point; and a parameter defined by other parameters.
+friction velocity, a load's point, an actuator's drive (gear, torque constant); and a
+parameter defined by other parameters.
 """
 from __future__ import annotations
 
@@ -117,6 +118,8 @@ def _slopes(robot, pl: Plan, s: _Slope):
     internal = _internal(robot)
     moves, bodies, loads = {}, list(pl.bodies), []
     dg = [s.number(g) for g in robot.gravity]
+    for actuator in robot.actuators:
+        s.none(actuator.scale, f"actuator {actuator.name}'s drive (its gear and torque constant)")
     for body in robot.bodies:
         i, joint = index[body.name], body.joint
         for what, value in (("an axis", joint.axis), ("an rpy", joint.rpy)):
@@ -194,7 +197,7 @@ def trace_law_slopes(robot, pl: Plan, names) -> Traced:
             for a, actuator in enumerate(robot.actuators if controller else ()):
                 d = s.expr(controller.laws[actuator.name]).xreplace(gains).xreplace(internal)
                 if d != 0:
-                    dtau = P.emit(to_ex(P, d))
+                    dtau = P.emit(to_ex(P, d) * pl.actuator_scale[a])
                     row = rows[pl.actuator_joint[a]]
                     for r in range(n):
                         slopes[r][j] = slopes[r][j] + row[r] * dtau

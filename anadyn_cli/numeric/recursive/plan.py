@@ -26,6 +26,7 @@ from ...model.joints import JointType
 from ...model.names import GROUND
 from ...model.robot import Robot
 from ...symbolic.kinematics import rpy_rotation
+from ..contact import ContactPlan, contact_plans
 from ..ir import as_expr
 
 
@@ -76,6 +77,8 @@ class Plan:
     actuator_joint: list[int]               # moving-joint index of each actuator
     laws: list[sp.Expr]                     # tau_k(t, q, dq) (zeros without controller)
     loads: list[LoadPlan] = field(default_factory=list)
+    contacts: list[ContactPlan] = field(default_factory=list)   # ``numeric.contact``
+    actuator_scale: list[float] = field(default_factory=list)  # generalized force / effort
 
     @property
     def n(self) -> int:
@@ -86,6 +89,33 @@ class Plan:
     def nq(self) -> int:
         """The number of coordinates (n, or more with spherical joints)."""
         return len(self.coordinates)
+
+    @property
+    def free(self) -> bool:
+        """Whether every root body is carried by a floating joint: massless slides along
+        x, y and z, one on the other, then a spherical joint (``model.joints.Floating``),
+        so that only the robot's loads and gravity act on it from outside."""
+        children: dict[int | None, list[int]] = {}
+        for i, b in enumerate(self.bodies):
+            children.setdefault(b.parent, []).append(i)
+
+        def slide(i: int, axis: int, first: bool) -> bool:
+            b = self.bodies[i]
+            return (b.joint_type.linear and not b.joint_type.angular and b.mass == 0
+                    and [round(a, 15) for a in b.axis] == [float(k == axis) for k in range(3)]
+                    and (first or (b.C_identity and not any(b.origin)))
+                    and len(children.get(i, ())) == 1)
+
+        def floating(root: int) -> bool:
+            i = root
+            for axis in range(3):
+                if not slide(i, axis, axis == 0):
+                    return False
+                i = children[i][0]
+            b = self.bodies[i]
+            return b.quaternion is not None and b.C_identity and not any(b.origin)
+        roots = children.get(None, [])
+        return bool(roots) and all(floating(root) for root in roots)
 
     @property
     def spherical(self) -> bool:
@@ -184,4 +214,6 @@ def plan(robot: Robot) -> Plan:
                 speeds=tuple(u.name for u in speeds),
                 efforts=tuple(a.name for a in robot.actuators), bodies=bodies, moving=moving,
                 gravity=[_num(expr(g)) for g in robot.gravity], actuator_joint=actuator_joint,
-                laws=laws, loads=loads)
+                laws=laws, loads=loads,
+                actuator_scale=[_num(expr(a.scale)) for a in robot.actuators],
+                contacts=contact_plans(robot, lambda e: _num(expr(e)), index))

@@ -1,10 +1,6 @@
 """The loads' power and the power joint damping and friction dissipate, for
 ``check``'s energy balance of a robot whose closed forms do not exist (a spherical
-joint): body velocities root to leaves, in body axes,
-
-    w_i = E w_p + sum s u,   vo_i = E (vo_p + w_p x r) + sum v u
-
-((s, v) the joint's motion subspace columns, u its joint speeds), then
+joint), from the body velocities (``Tracer.velocities``), in body axes:
 
     P_loads = sum_i F_i . vo_i + N_i . w_i      (F, N: the loads on body i, force and
                                                  moment about its origin, body axes)
@@ -13,31 +9,17 @@ joint): body velocities root to leaves, in body axes,
 from __future__ import annotations
 
 from ..ir import ZERO, Ex
-from .spatial import add, columns, cross, dot, emitv, matvec, scale
+from .spatial import dot
 from .tracer import Tracer
 
 
 def powers(T: Tracer) -> list[Ex]:
     """[P_loads, P_dissipated] (module docstring)."""
     P, plan = T.P, T.plan
-    frames = T.frames()
     rate = T.joint_rates(T.dq)
-    external = T.external()
-    zero = [ZERO, ZERO, ZERO]
-    velocity = []
+    external = T.external(contacts=False)      # contact: ``numeric.contact``'s own terms
     loads = ZERO
-    for i, b in enumerate(plan.bodies):
-        E, r = frames[i]
-        w, vo = zero, zero
-        if b.parent is not None:
-            wp, vp = velocity[b.parent]
-            w, vo = emitv(P, matvec(E, wp)), emitv(P, matvec(E, add(vp, cross(wp, r))))
-        for j, (s, v) in enumerate(columns(b), start=b.joint or 0):
-            if s is not None:
-                w = emitv(P, add(w, scale(s, rate[j])))
-            if v is not None:
-                vo = emitv(P, add(vo, scale(v, rate[j])))
-        velocity.append((w, vo))
+    for i, (w, vo) in enumerate(T.velocities()):
         if i in external:
             force, moment = external[i]
             loads = loads + dot(force, vo) + dot(moment, w)

@@ -10,12 +10,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ...model.robot import Robot
+from .. import contact
 from ..ir import ZERO, Counts, Ex, Program, count, prune
 from . import aba
 from .crba import mass_matrix
 from .factor import Factor, cholesky, solve
 from .plan import Plan, plan
 from .potential import potential
+from .momentum import momentum
 from .power import powers
 from .rnea import inverse_dynamics
 from .tracer import Tracer
@@ -129,7 +131,8 @@ def trace_mfb(pl: Plan) -> Traced:
         M = mass_matrix(T)
         F = [P.emit(-x) for x in inverse_dynamics(T, None, actuators=False)]
         _, rows, _ = T.joint_maps()
-        B = [[rows[j][r] for j in pl.actuator_joint] for r in range(n)]
+        B = [[rows[j][r] * s for j, s in zip(pl.actuator_joint, pl.actuator_scale)]
+             for r in range(n)]
     return _finish("mfb", state_args(pl), P, {"M": M, "F": F, "B": B})
 
 
@@ -151,7 +154,8 @@ def trace_actuation(pl: Plan) -> Traced:
     P = Program()
     with P:
         _, rows, _ = Tracer(pl, P).joint_maps()
-        B = [[rows[j][r] for j in pl.actuator_joint] for r in range(n)]
+        B = [[rows[j][r] * s for j, s in zip(pl.actuator_joint, pl.actuator_scale)]
+             for r in range(n)]
     return _finish("actuation", state_args(pl), P, {"B": B})
 
 
@@ -178,16 +182,32 @@ def trace_rates(pl: Plan) -> Traced:
 
 
 def _spherical(pl: Plan) -> dict[str, Traced]:
-    """What a robot with a spherical joint adds: its coordinates' rates and, with
-    loads or joint damping or friction, their powers (for ``check``; the other robots
-    take them from the kinematics' closed forms, ``closed_form.forces_source``)."""
+    """What a robot with a spherical joint adds: its coordinates' rates, its momentum
+    when it is free (``Plan.free``) and, with loads or joint damping or friction, their
+    powers (for ``check``; the other robots take them from the kinematics' closed
+    forms, ``closed_form.forces_source``)."""
     functions = {"rates": trace_rates(pl)}
+    if pl.free:
+        P = Program()
+        with P:
+            world = momentum(Tracer(pl, P))
+        functions["momentum"] = _finish("momentum", state_args(pl), P, {"H": world})
     if pl.loads or any(b.damping or b.friction for b in pl.bodies):
         P = Program()
         with P:
             power = powers(Tracer(pl, P))
         functions["powers"] = _finish("powers", state_args(pl), P, {"P": power})
     return functions
+
+
+def trace_contacts(pl: Plan) -> Traced:
+    """Per contact (``numeric.contact``): its normal force, the friction along the
+    ground's tangents, the penetration, the spring energy and the dissipated power."""
+    P = Program()
+    with P:
+        rows = [[c[key] for key in ("fn", "ft1", "ft2", "depth", "energy", "dissipated")]
+                for c in contact.traced(Tracer(pl, P))]
+    return _finish("contacts", state_args(pl), P, {"C": rows})
 
 
 def trace_efforts(pl: Plan) -> Traced:
@@ -241,7 +261,8 @@ def complete(gen: Generated) -> Generated:
                  "efforts": trace_efforts(pl),
                  "inverse_dynamics": trace_inverse(pl), "actuation": trace_actuation(pl),
                  "potential": trace_potential(pl),
-                 **(_spherical(pl) if pl.spherical else {})}
+                 **(_spherical(pl) if pl.spherical else {}),
+                 **({"contacts": trace_contacts(pl)} if pl.contacts else {})}
     return Generated(pl, functions, gen.factor)
 
 

@@ -19,9 +19,11 @@ from __future__ import annotations
 
 import sympy as sp
 
+from ..contact import traced
 from ..ir import ZERO, Ex, Program
 from .plan import Plan
-from .spatial import (Vec, add, const_vec, cross, emitv, matvec, rotation_transpose, to_ex)
+from .spatial import (Vec, add, columns, const_vec, cross, emitv, matvec, rotation_transpose,
+                      scale, to_ex)
 
 
 class Tracer:
@@ -33,6 +35,7 @@ class Tracer:
         self.dq = [Ex.atom(f"_u{k}") for k in range(plan.n)]     # the speeds
         self._frames = None
         self._joint = None
+        self._velocities = None
         #: the actuators' efforts as inputs (atoms _e0, _e1, ...) instead of their laws
         self.given_efforts: list[Ex] | None = None
 
@@ -114,8 +117,31 @@ class Tracer:
         above = vec if b.parent is None else self.to_body(vec, b.parent)
         return emitv(self.P, matvec(self.frames()[i][0], above))
 
-    def external(self) -> dict:
-        """Body index -> (force, moment about the origin) of its loads, body axes."""
+    def velocities(self) -> list:
+        """Per body (w_i, vo_i), body axes, root to leaves: w_i = E w_p + sum s u,
+        vo_i = E (vo_p + w_p x r) + sum v u ((s, v) the joint's subspace columns)."""
+        if self._velocities is None:
+            P, zero = self.P, [ZERO, ZERO, ZERO]
+            rate = self.joint_rates(self.dq)
+            out = []
+            for i, b in enumerate(self.plan.bodies):
+                E, r = self.frames()[i]
+                w, vo = zero, zero
+                if b.parent is not None:
+                    wp, vp = out[b.parent]
+                    w, vo = emitv(P, matvec(E, wp)), emitv(P, matvec(E, add(vp, cross(wp, r))))
+                for j, (s, v) in enumerate(columns(b), start=b.joint or 0):
+                    if s is not None:
+                        w = emitv(P, add(w, scale(s, rate[j])))
+                    if v is not None:
+                        vo = emitv(P, add(vo, scale(v, rate[j])))
+                out.append((w, vo))
+            self._velocities = out
+        return self._velocities
+
+    def external(self, contacts: bool = True) -> dict:
+        """Body index -> (force, moment about the origin) of its loads and (``contacts``)
+        its contact forces (``numeric.contact``), body axes."""
         P = self.P
         zero = [ZERO, ZERO, ZERO]
         external = {}
@@ -130,6 +156,10 @@ class Tracer:
             point = [to_ex(P, x) for x in ld.point]
             F0, N0 = external.get(ld.body, (zero, zero))
             external[ld.body] = (add(F0, Fv), add(N0, Tv, cross(point, Fv)))
+        for body, force, moment in (w for c in (traced(self) if contacts else ())
+                                    for w in c["wrenches"]):
+            F0, N0 = external.get(body, (zero, zero))
+            external[body] = (add(F0, force), add(N0, moment))
         return external
 
     # joint efforts -------------------------------------------------------------
@@ -163,7 +193,7 @@ class Tracer:
         for k, j in enumerate(plan.actuator_joint):
             effort = (self.given_efforts[k] if self.given_efforts is not None
                       else P.emit(to_ex(P, plan.laws[k])))
-            out[j] = out[j] + effort
+            out[j] = out[j] + effort * plan.actuator_scale[k]
         return out
 
     def efforts(self) -> list[Ex]:

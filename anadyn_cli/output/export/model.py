@@ -84,6 +84,8 @@ class ExportModel:
         """The export model of ``robot`` from its equations ``eom`` (symbolic
         parameters when ``eom.symbolic``; the control laws keep their gains
         as symbols then too)."""
+        robot.refuse_spherical("exports of the closed forms (export --lang c, python, "
+                               "matlab, latex)")
         symbolic = bool(eom.symbolic)
         coordinates = [Quantity(s, s.name, c.unit, i)
                        for i, (s, c) in enumerate(zip(eom.q, robot.coordinates))]

@@ -59,6 +59,7 @@ def trace(robot) -> Traced:
     """The three functions of ``robot`` (a validated open-chain ``Robot``); ModelError
     when B depends on the state (no constant pinv(B) for the inverse dynamics)."""
     robot.refuse_spherical("exports and optimal motions (export, optimize)")
+    robot.refuse_contacts("exports and optimal motions (export, optimize)")
     pl = plan(robot)
     n, m = pl.n, len(pl.actuator_joint)
     B = trace_actuation(pl).outputs["B"]

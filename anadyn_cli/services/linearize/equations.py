@@ -18,7 +18,9 @@ class Equations:
     def __init__(self, robot, eom):
         self.q, self.dq = list(eom.q), list(eom.dq)
         self.ddq, self.tau = list(eom.ddq), list(eom.efforts)
-        self.n, self.m = len(self.q), len(self.tau)
+        self.n, self.m = len(self.dq), len(self.tau)      # speeds (the size of M), efforts
+        self.nq = len(self.q)                              # coordinates: n, or more with a
+        self.kinematic = eom.kinematic                     # quaternion (dq = W(q) u)
         self.M, self.F, self.B = sp.Matrix(eom.M), sp.Matrix(eom.F), sp.Matrix(eom.B)
         R = self.F - self.M * sp.Matrix(self.ddq)
         if self.m:
@@ -36,7 +38,7 @@ class Equations:
         for variable in self.q + self.dq:
             d = Derivative({variable: 1})
             columns.append([d(e) for e in exprs])
-        return sp.Matrix(len(exprs), 2 * self.n, lambda i, j: columns[j][i])
+        return sp.Matrix(len(exprs), self.nq + self.n, lambda i, j: columns[j][i])
 
     def values(self, t, q, dq, tau=None, ddq=None, constants=None) -> dict:
         values = dict(constants or {})

@@ -182,7 +182,8 @@ def start_point(robot, eq: Equations, given: dict, efforts: str, equilibrium: bo
     exact: dict[sp.Symbol, sp.Expr] = {}
     for i, c in enumerate(robot.coordinates):
         exact[eq.q[i]] = given["q"].get(i, c.initial.xreplace(numeric))
-        exact[eq.dq[i]] = given["dq"].get(i, c.rate.xreplace(numeric))
+    for i, u in enumerate(robot.speeds):       # the rates, then a spherical joint's speeds
+        exact[eq.dq[i]] = given["dq"].get(i, u.initial.xreplace(numeric))
     exact[TIME] = given["t"] if given["t"] is not None else sp.Integer(0)
     t0 = float(exact[TIME])
     q0 = np.array([float(exact[s]) for s in eq.q])

@@ -33,6 +33,10 @@ class Linearization:
     eigenvalues: list[dict]
     eigenvalues_closed_loop: list[dict]
     controllability_rank: int
+    #: names and units of the point's [q, u] when they are not the state's (a
+    #: spherical joint: the state is on the tangent space); empty otherwise
+    point_state: list[str] = field(default_factory=list)
+    point_units: list[str] = field(default_factory=list)
     symbolic: dict | None = None              # the matrices below as text (linearize.json)
     symbolic_matrices: dict = field(default_factory=dict)   # name -> SymPy Matrix
     timings: dict = field(default_factory=dict)
@@ -52,8 +56,9 @@ def linearize(robot, formulation: str = "kane", at: str | None = None,
 
     timings = {} if timings is None else timings
     refuse_closed_chain(robot, "linearize")
+    robot.refuse_contacts("linearizations (linearize)")
     given = parse_at(at, robot)
-    n, m = len(robot.coordinates), len(robot.actuators)
+    n, m = len(robot.speeds), len(robot.actuators)
     check_efforts(robot, efforts, given)
     if equilibrium and efforts == "holding":
         raise SettingError("equilibrium", "with efforts 'holding': holding efforts make a "
@@ -70,6 +75,9 @@ def linearize(robot, formulation: str = "kane", at: str | None = None,
 
     names = [c.name for c in robot.coordinates]
     state = names + ["d" + c for c in names]
+    if eom.kinematic is not None:       # the point is given in [q, u]; A on the tangent space
+        refuse_on_sphere(robot, given, equilibrium, symbolic)
+        state = names + [u.name for u in robot.speeds]
     exact, t0, q0, dq0, source, fixed_tau, searched = start_point(
         robot, eq, given, efforts, equilibrium, state)
 
@@ -100,12 +108,18 @@ def linearize(robot, formulation: str = "kane", at: str | None = None,
     point = OperatingPoint(t0, q0, dq0, tau0, ddq0, source, is_equilibrium, searched,
                            holding_residual, exact)
     units = ([c.unit for c in robot.coordinates] + [c.unit + "/s" for c in robot.coordinates])
+    point_state, point_units = [], []
+    if eom.kinematic is not None:
+        point_state = names + [u.name for u in robot.speeds]
+        point_units = [c.unit for c in robot.coordinates] + [u.unit for u in robot.speeds]
+        state, units = tangent_state(robot)
     result = Linearization(
         robot=robot.name, source=robot.source, formulation=eom.formulation, state=state,
         inputs=[a.name for a in robot.actuators], units=units, point=point, A=A, B=Bss,
         A_closed_loop=A_cl, has_controller=eq.laws is not None,
         eigenvalues=modes(A, Bss), eigenvalues_closed_loop=modes(A_cl),
-        controllability_rank=controllability_rank(A, Bss), timings=timings)
+        controllability_rank=controllability_rank(A, Bss), timings=timings,
+        point_state=point_state, point_units=point_units)
     if symbolic:
         start = time.perf_counter()
         result.symbolic_matrices = symbolic_form(robot, formulation, point)
@@ -122,11 +136,12 @@ def state_matrices(eq: Equations, x0, tau0, ddq0, law0, terms, where: str):
     t0, q0, dq0 = x0
     M0, F0, B0 = terms
     n, m = eq.n, eq.m
+    rows, to_tangent = tangent_rows(eq, q0, dq0)
     # open loop: efforts held at tau0
     ev_open = Evaluator(eq.values(t0, q0, dq0, tau0, ddq0))
-    K = evaluate(ev_open, "derivatives", lambda: ev_open.matrix(eq.Rx))
+    K = evaluate(ev_open, "derivatives", lambda: ev_open.matrix(eq.Rx)) @ to_tangent
     A = np.zeros((2 * n, 2 * n))
-    A[:n, n:] = np.eye(n)
+    A[:n] = rows
     A[n:, :] = np.linalg.solve(M0, K)
     Bss = np.zeros((2 * n, m))
     if m:
@@ -139,6 +154,48 @@ def state_matrices(eq: Equations, x0, tau0, ddq0, law0, terms, where: str):
         K_c = K_c + B0 @ evaluate(ev_closed, "control laws' derivatives",
                                    lambda: ev_closed.matrix(eq.Lx))
     A_cl = np.zeros((2 * n, 2 * n))
-    A_cl[:n, n:] = np.eye(n)
-    A_cl[n:, :] = np.linalg.solve(M0, K_c)
+    A_cl[:n] = rows
+    A_cl[n:, :] = np.linalg.solve(M0, K_c @ to_tangent)
     return A, Bss, A_cl
+
+
+def tangent_rows(eq: Equations, q0, dq0) -> tuple[np.ndarray, np.ndarray]:
+    """(the first n rows of A, T = dx/d(dx_tangent) ((nq + n) x 2n)).  Without a
+    spherical joint: [0, I] and the identity.  With one, each quaternion's
+    perturbation is a rotation vector dtheta in body axes, q = q0 (x) (1, dtheta/2):
+    T maps it by dq = W(q0) dtheta (W of dq = W(q) u), and its rows are
+    d(dtheta)/dt = du - w0 x dtheta (w0 the point's speeds)."""
+    n, nq = eq.n, eq.nq
+    rows = np.hstack([np.zeros((n, n)), np.eye(n)])
+    if eq.kinematic is None:
+        return rows, np.eye(2 * n)
+    W = np.array(sp.Matrix(eq.kinematic).jacobian(eq.dq).xreplace(dict(zip(eq.q, q0)))
+                 .evalf(), dtype=float)
+    T = np.zeros((nq + n, 2 * n))
+    T[:nq, :n], T[nq:, n:] = W, np.eye(n)
+    for k in range(n - 3 * (nq - n), n, 3):             # each spherical joint's speeds
+        wx, wy, wz = dq0[k:k + 3]
+        rows[k:k + 3, k:k + 3] = -np.array([[0, -wz, wy], [wz, 0, -wx], [-wy, wx, 0]])
+    return rows, T
+
+
+def tangent_state(robot) -> tuple[list[str], list[str]]:
+    """The names and units of the tangent state [coordinates, dtheta, speeds]: a
+    spherical joint's rotation vector named theta_<its speed> (rad)."""
+    quaternions = {name for b in robot.bodies for name in b.joint.coordinates}
+    plain = [c for c in robot.coordinates if c.name not in quaternions]
+    turns = [u for b in robot.bodies for u in b.joint.speeds]
+    return ([c.name for c in plain] + [f"theta_{u.name}" for u in turns]
+            + [u.name for u in robot.speeds],
+            [c.unit for c in plain] + ["rad"] * len(turns) + [u.unit for u in robot.speeds])
+
+
+def refuse_on_sphere(robot, given: dict, equilibrium: bool, symbolic: bool) -> None:
+    """What the tangent-space linearization does not do with a spherical joint: one line."""
+    n, nq = len(robot.speeds), len(robot.coordinates)
+    what = ("equilibrium" if equilibrium else "symbolic" if symbolic else
+            "at" if any(i >= n - 3 * (nq - n) for i in given["dq"]) else None)
+    if what is not None:
+        raise SettingError(what, "is not available for a robot with a spherical joint "
+                                 "(linearize it at a given state: its file's or 'at' with "
+                                 "coordinates and the rates of the other joints)")

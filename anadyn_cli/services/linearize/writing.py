@@ -14,16 +14,17 @@ from .state_space import Linearization
 
 def summary(result: Linearization) -> dict:
     p = result.point
-    names = result.state[:len(p.q)]
+    names = (result.point_state or result.state)[:len(p.q)]
+    rates = result.point_state[len(p.q):] if result.point_state else names
     return {
         "robot": result.robot, "formulation": result.formulation, "evaluator": "closed-form",
         "state": result.state, "inputs": result.inputs, "units": result.units,
         "x0": [*map(float, p.q), *map(float, p.dq)], "u0": list(map(float, p.tau)),
         "operating_point": {
             "t": p.t, "q": dict(zip(names, map(float, p.q))),
-            "dq": dict(zip(names, map(float, p.dq))),
+            "dq": dict(zip(rates, map(float, p.dq))),
             "tau": dict(zip(result.inputs, map(float, p.tau))),
-            "ddq": dict(zip(names, map(float, p.ddq))),
+            "ddq": dict(zip(rates, map(float, p.ddq))),
             "efforts_from": p.efforts_from, "equilibrium": p.equilibrium,
             "searched_equilibrium": p.searched, "holding_residual": p.holding_residual},
         "A": result.A.tolist(), "B": result.B.tolist(),
@@ -86,10 +87,10 @@ def _matrix_text(matrix: np.ndarray, rows: list[str], columns: list[str]) -> lis
 
 def report(result: Linearization) -> str:
     p = result.point
-    n = len(p.q)
     units = result.units
     state = ", ".join(f"{s} = {v:.6g} {u}" for s, v, u in
-                      zip(result.state, [*p.q, *p.dq], units))
+                      zip(result.point_state or result.state, [*p.q, *p.dq],
+                          result.point_units or units))
     lines = [f"{result.robot} ({result.formulation}) at t = {p.t:g} s: {state}"]
     source = {"given": "given", "controller": "the controller's", "none": "zero",
               "holding": "static holding"}[p.efforts_from]
@@ -102,7 +103,8 @@ def report(result: Linearization) -> str:
     lines.append(("static equilibrium" + (" (found by the equilibrium search)" if p.searched else ""))
                  if p.equilibrium else
                  f"not an equilibrium: ddq = ({', '.join(f'{v:.4g}' for v in p.ddq)})")
-    derivative = [f"d{s}" if i < n else f"dd{s[1:]}" for i, s in enumerate(result.state)]
+    derivative = [f"d{s}" if i < len(result.state) // 2 or result.point_state else
+                  f"dd{s[1:]}" for i, s in enumerate(result.state)]    # (speeds: d<u>)
     lines += ["", "A = d(dx/dt)/dx, efforts held:"]
     lines += _matrix_text(result.A, derivative, result.state)
     if result.inputs:

@@ -269,7 +269,7 @@ def _robot_text(model: ParametricModel, pi, physical: bool) -> tuple[str | None,
                            "friction (anadyn identify)")
     if [body.get("name") for body in data.get("bodies", ())] != list(model.bodies):
         return None, ("no robot file: the robot has bodies its file does not list (the "
-                      "massless links of compound joints)")
+                      "massless links of compound joints, the rotors of drives)")
     drive = 10 * len(model.bodies)
     moving = model.moving
     for b, body in enumerate(data["bodies"]):

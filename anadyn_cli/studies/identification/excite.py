@@ -12,10 +12,12 @@ one period (from the eigenvalues of Y_b^T Y_b), by SLSQP
 (``scipy.optimize.minimize``), with inequality constraints at those times:
 every joint displacement within its limits (lower, upper), its rate within
 its velocity limit, and every actuator's
-effort (the file's parameters) within its effort limit, each limit scaled by
-``margin`` (the position range about its middle).  A joint without position
-limits keeps within pi rad (0.5 m) of its coordinate's initial value; a
-missing velocity or effort limit does not constrain.  The start is random
+effort (the file's parameters) within its effort limit (``Actuator.effort_limit``:
+its drive's, else its joint's), each limit scaled by ``margin`` (the position
+range about its middle).  A joint without position limits keeps within pi rad
+(0.5 m) of its initial value, times its largest coordinate factor (a drive's
+rotor turns N times the joint: N pi); a missing velocity or effort limit does
+not constrain.  The start is random
 (seeded) at a quarter of the ranges.  The result is then checked on the
 output grid; where it leaves a limit there, the coefficients a, b are scaled
 down by 2% steps until it does not.
@@ -88,8 +90,8 @@ def series(t, period, offsets, a, b):
 
 
 def _bounds(model: ParametricModel, margin: float):
-    """Per moving joint: (lower, upper, velocity, effort) with the margin, inf where
-    not limited; an actuator's effort limit from its joint."""
+    """Per moving joint: (lower, upper, velocity) with the margin, inf where not
+    limited."""
     values = model.robot.parameter_substitution()
     initial = np.array([value_of(c.initial, values)
                         for c in model.robot.coordinates])
@@ -101,12 +103,12 @@ def _bounds(model: ParametricModel, margin: float):
 
         lower, upper = num(limits.lower), num(limits.upper)
         unit = "rad" if model.joint_types[body].angular else "m"
-        if not math.isfinite(lower) or not math.isfinite(upper):
-            lower, upper = theta0[j] - DEFAULT_SPAN[unit], theta0[j] + DEFAULT_SPAN[unit]
+        if not math.isfinite(lower) or not math.isfinite(upper):   # (a rotor's: N times)
+            span = DEFAULT_SPAN[unit] * np.abs(model.J[j]).max()
+            lower, upper = theta0[j] - span, theta0[j] + span
         middle, half = (lower + upper) / 2, (upper - lower) / 2 * margin
-        rows.append((middle - half, middle + half, num(limits.velocity) * margin,
-                     num(limits.effort) * margin))
-    return np.array(rows).reshape(-1, 4), initial
+        rows.append((middle - half, middle + half, num(limits.velocity) * margin))
+    return np.array(rows).reshape(-1, 3), initial
 
 
 def excite(model: ParametricModel, base: BaseParameters | None = None, period: float = 10.0,
@@ -128,9 +130,8 @@ def excite(model: ParametricModel, base: BaseParameters | None = None, period: f
     middle_theta = (limits[:, 0] + limits[:, 1]) / 2
     start_offsets = np.linalg.lstsq(model.J, middle_theta - model.theta0, rcond=None)[0]
     t_opt = np.linspace(0, period, samples, endpoint=False)
-    actuator = [model.joint_of_body[model.robot.bodies.index(model.robot.body(a.body))]
-                for a in model.robot.actuators]
-    effort_limits = limits[actuator, 3]
+    effort_limits = np.array([math.inf if a.effort_limit is None else float(a.effort_limit)
+                              for a in model.robot.actuators]) * margin   # the actuators'
     B_inv = np.linalg.inv(model.B) if model.B.shape[0] == model.B.shape[1] else None
     independent = list(base.independent)
 

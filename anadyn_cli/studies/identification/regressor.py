@@ -244,6 +244,7 @@ def parametric_model(robot: Robot) -> ParametricModel:
     if robot.loads:
         raise ModelError("the regressor models no external loads; this robot has "
                          f"{len(robot.loads)} (remove its loads: section)", source=where)
+    robot.refuse_contacts("identification (excite, identify)")
     values = robot.parameter_substitution()
 
     def num(e) -> float:
@@ -285,7 +286,7 @@ def parametric_model(robot: Robot) -> ParametricModel:
     drive = np.array(drive).reshape(len(rows), 5)
     B = np.zeros((len(qs), len(robot.actuators)))
     for a, actuator in enumerate(robot.actuators):
-        B[:, a] = J[joint_of_body[index[actuator.body]]]
+        B[:, a] = num(actuator.scale) * J[joint_of_body[index[actuator.body]]]
     moving = [i for i, j in enumerate(joint_of_body) if j >= 0]
     bodies = tuple(b.name for b in robot.bodies)
     pi = np.concatenate([*nominal, *([0.0, fv, fc] for fv, fc in drive[:, :2])])

@@ -70,6 +70,12 @@ class Plan:
         return [*self.design.names, "status", "reason", *self.payload.columns, *limits]
 
 
+def rated(nq: int, n: int) -> int:
+    """How many coordinates have their rate among the n speeds (all of them, but not a
+    spherical joint's quaternion: 4 coordinates, 3 speeds; those come last)."""
+    return n - 3 * (nq - n)
+
+
 def metric_columns(info: RobotInfo, command: str, groups: tuple[str, ...]) -> list[str]:
     columns = []
     if "effort" in groups:
@@ -81,7 +87,8 @@ def metric_columns(info: RobotInfo, command: str, groups: tuple[str, ...]) -> li
         columns.append("settling_time")
     if "final" in groups:
         columns += [f"final_{c.name}" for c in info.coordinates]
-        columns += [f"final_d{c.name}" for c in info.coordinates]
+        columns += [f"final_d{c.name}" for c in info.coordinates[
+            :rated(len(info.coordinates), len(info.speeds or info.coordinates))]]
     if "energy" in groups:
         columns.append("energy_error")
     if "check" in groups:
@@ -266,6 +273,8 @@ def _derive(robot, folding, formulation: str, names: tuple[str, ...], use_cache:
     """The generated module with ``names`` free: from the cache, else derived (and
     stored when ``use_cache``)."""
     from ...numeric import bindable, cache
+
+    robot.refuse_contacts("sweeps (sweep: the closed forms with free parameters)")
 
     digest = hashlib.sha256(f"{robot.digest}|sweep|{','.join(names)}".encode()).hexdigest()
     code = None

@@ -10,7 +10,7 @@ import numpy as np
 
 from ...errors import ModelError, NumericalError
 from ...model.info import RobotInfo
-from .plan import Payload
+from .plan import Payload, rated
 
 STILL = 1e-9                   # rad or m: a coordinate that deviates less never "settles"
 
@@ -188,7 +188,7 @@ class Runner:
             row["_file_limit"] = passed[0].line()
 
     def _path(self, row: dict, t: np.ndarray, x: np.ndarray, tau: np.ndarray) -> None:
-        n = self.model.n
+        n = self.model.nq                   # coordinates, then the speeds
         q = x[:, :n]
         self._effort(row, t, tau)
         self._limits(row, t, q, x[:, n:], tau)
@@ -201,7 +201,8 @@ class Runner:
         if "final" in self.groups:
             for i, name in enumerate(self.coordinates):
                 row[f"final_{name}"] = float(x[-1, i])
-                row[f"final_d{name}"] = float(x[-1, n + i])
+            for k, name in enumerate(self.coordinates[:rated(self.model.nq, self.model.n)]):
+                row[f"final_d{name}"] = float(x[-1, n + k])
 
 
     def reference(self, t: np.ndarray) -> np.ndarray:

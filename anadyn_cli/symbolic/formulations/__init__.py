@@ -21,7 +21,9 @@ FORMULATIONS = {"kane": kane.equations, "lagrange": lagrange.equations}
 
 def derive(robot: Robot, formulation: str = "kane", symbolic: bool = False,
            tidy: bool = True) -> EquationsOfMotion:
-    """M(q) ddq = F(t, q, dq) + B(q) tau for ``robot`` by ``formulation``.
+    """M(q) ddq = F(t, q, dq) + B(q) tau for ``robot`` by ``formulation``, in the
+    generalized speeds (with a spherical joint M du = F(t, q, u) + B tau and the
+    kinematic differential equations dq = W(q) u, ``EquationsOfMotion.kinematic``).
 
     Numeric parameter values are substituted before any differentiation
     unless ``symbolic``; ``tidy`` puts small entries in canonical form.
@@ -31,9 +33,9 @@ def derive(robot: Robot, formulation: str = "kane", symbolic: bool = False,
                          f"{', '.join(FORMULATIONS)}")
     from ... import progress
 
-    robot.refuse_spherical("symbolic equations (Kane, Lagrange)")
     with progress.task(f"deriving {formulation} equations of {robot.name}"):
-        eom = FORMULATIONS[formulation](robot, kinematics.build(robot, symbolic=symbolic))
+        kin = kinematics.build(robot, symbolic=symbolic, rates=formulation == "lagrange")
+        eom = FORMULATIONS[formulation](robot, kin)
     if tidy and fits([*eom.M, *eom.F, *eom.B]):
         if eom.Q is None:
             F, Q = _tidy(eom.F), None

@@ -22,14 +22,30 @@ T (body axes) on a body of partial angular velocities W:
 
     Q_r = -dV_s/dq_r + sum_j (-c_j dtheta_j - f_j tanh(dtheta_j / v_j)) d theta_j/dq_r
           + sum_loads f . d r_p/dq_r + T . W[:, r]
+
+A spherical joint's speeds are not rates (``kinematics``): the equations are
+written in the quaternion's rates, with the unit quaternion's rotation and
+w = 2 G(q) dq (``kinematics.build(rates=True)``), and its unit-norm constraint
+|q|^2 = 1 adds a multiplier, M_q ddq = F_q + B_q tau + 2 lambda q (the
+constraint's gradient 2 q).  With the kinematic differential equations
+dq = W(q) u, ddq = W du + (dW/dt) u, and W(q)^T q = 0 (1/2 q (x) (0, w) is
+normal to q), projecting on the speeds removes every multiplier:
+
+    W^T M_q W du = W^T (F_q - M_q (dW/dt) u) + W^T B_q tau
+
+(``on_speeds``; the null-space form of Lagrange's equations with multipliers,
+as ``formulations.constrained`` does for closed loops).  These hold on the unit
+sphere; the result is then evaluated at q / |q|, so that, as on every other path,
+the motion does not depend on the quaternion's norm.
 """
 from __future__ import annotations
 
 import sympy as sp
 
-from .. import forces
+from .. import forces, kinematics
 from ..eom import EquationsOfMotion
 from ..kinematics import Kinematics
+from .kane import accelerations
 from ...model.robot import Robot
 from ..derivative import Derivative
 
@@ -51,6 +67,8 @@ def energies(kin: Kinematics) -> tuple[sp.Expr, sp.Expr]:
 
 
 def equations(robot: Robot, kin: Kinematics) -> EquationsOfMotion:
+    """Lagrange's equations of ``robot`` from ``kin``, built over the coordinates' rates
+    (``kinematics.build(rates=True)``); projected on the speeds with a spherical joint."""
     q, dq = kin.q, kin.dq
     n = len(q)
     T, V = energies(kin)
@@ -67,12 +85,41 @@ def equations(robot: Robot, kin: Kinematics) -> EquationsOfMotion:
     for k, actuator in enumerate(robot.actuators):
         theta = kin.bodies[index[actuator.body]].displacement
         for r in range(n):
-            B[r, k] = sp.diff(theta, q[r])
+            B[r, k] = actuator.scale.xreplace(robot.parameter_substitution(kin.symbolic)
+                                              ) * sp.diff(theta, q[r])
     Q = generalized_forces(robot, kin)
-    return EquationsOfMotion(
+    eom = EquationsOfMotion(
         formulation="lagrange", q=q, dq=dq, ddq=tuple(sp.Symbol("dd" + s.name, real=True) for s in q),
         efforts=tuple(sp.Symbol(a.name, real=True) for a in robot.actuators),
         M=Matrix(M), F=Matrix(F + Q) if Q is not None else F, B=Matrix(B), Q=Q)
+    return on_speeds(robot, eom) if robot.spherical else eom
+
+
+def on_speeds(robot: Robot, eom: EquationsOfMotion) -> EquationsOfMotion:
+    """``eom`` in the coordinates' rates projected on the speeds (module docstring):
+    W^T M W du = W^T (F - M (dW/dt) u) + W^T B tau, with dq = W(q) u put in F."""
+    kinematic = kinematics.kinematic_equations(robot)
+    speeds = tuple(u.symbol for u in robot.speeds)
+    W = kinematic.jacobian(speeds)
+    along = Derivative(dict(zip(eom.q, kinematic)))      # d/dt along dq = W u, du = 0
+    drift = Matrix([along(e) for e in kinematic])         # (dW/dt) u
+    rates = dict(zip(eom.dq, kinematic))
+
+    unit = {}                                             # q -> q / |q|, per quaternion
+    for b in robot.bodies:
+        if b.joint.joint_type.orientation:
+            quaternion = [sp.Symbol(name, real=True) for name in b.joint.coordinates]
+            norm = sp.sqrt(sp.Add(*[c ** 2 for c in quaternion]))
+            unit.update({c: c / norm for c in quaternion})
+
+    def project(matrix):
+        return Matrix((W.T * Matrix(matrix).xreplace(rates)).xreplace(unit))
+
+    Q = None if eom.Q is None else project(eom.Q)
+    return EquationsOfMotion(
+        formulation="lagrange", q=eom.q, dq=speeds, ddq=accelerations(speeds),
+        efforts=eom.efforts, M=project(eom.M * W), F=project(eom.F - eom.M * drift),
+        B=project(eom.B), Q=Q, kinematic=kinematic)
 
 
 def generalized_forces(robot: Robot, kin: Kinematics) -> Matrix | None:

@@ -1,0 +1,142 @@
+"""Floating-base robots against Pinocchio's free-flyer, in one run (issue 24, item 6).
+
+    python bench/floating.py [--repeat K] [--calls N]
+
+Robots: example-robot-data's Solo12 (18 DOF) and G1 (29 joints, 35 DOF), imported
+with ``--floating-base``; Pinocchio reads the same URDFs with a
+``JointModelFreeFlyer`` root.  Three figures per robot, each a ratio anadyn /
+Pinocchio measured in the same run (CPU time, user + system, of the process and
+the children it waits for):
+
+- per call: the state derivative x' = [dq, du] at N random states, one Python
+  call each: anadyn's ``NumericModel.rhs`` (native C) against what a Pinocchio
+  user writes, ``pin.aba`` plus the free-flyer's position and quaternion rates
+  (dp = R v, dq_quat = 1/2 q (x) (0, w)) in NumPy;
+- cold: ``anadyn simulate URDF --floating-base --t-end 1 --no-plot`` in a new
+  process with a new derivation cache (its background build's CPU, reported by
+  the next run, added), against ``bench/pinocchio_fall.py``, which imports
+  Pinocchio and SciPy, loads the URDF, integrates the same free fall for 1 s
+  with odeint (LSODA) at anadyn's tolerances (1e-10, 1e-12) calling ABA, and
+  writes the CSV;
+- warm: the same anadyn command once the cache is filled (best of K), against
+  the same script (best of K).
+
+The free fall starts at rest at the identity pose: both integrate the same
+equations, and the bench checks that the two end states agree.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE))
+
+import pinocchio_fall  # noqa: E402  (bench/, beside this file)
+
+ROBOTS = {"solo12": "solo_description/robots/solo12.urdf",
+          "g1": "g1_description/urdf/g1_29dof_rev_1_0.urdf"}
+
+
+
+def cpu_of(command: list[str], env=None) -> tuple[float, float, subprocess.CompletedProcess]:
+    """(CPU s of the child and what it waited for, wall s, the process)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    done = subprocess.run(command, capture_output=True, text=True, env=env)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode:
+        raise SystemExit(f"{' '.join(command)} failed:\n{done.stderr}")
+    return (after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime), wall, done
+
+
+def per_call(urdf: Path, calls: int) -> tuple[float, float]:
+    """(anadyn, Pinocchio) CPU seconds per state derivative."""
+    import pinocchio as pin
+
+    from anadyn_cli.model.info import RobotInfo
+    from anadyn_cli.model.loader import robot_from_text
+    from anadyn_cli.model.urdf import import_file
+    from anadyn_cli.numeric import native, recursive
+
+    robot = robot_from_text(import_file(urdf, floating_base=True, inertia="accept").text,
+                            urdf.name)
+    gen = recursive.generate(robot)
+    code = recursive.module_source(gen)
+    module, note = native.build(native.c_source(gen), {})
+    if module is None:
+        raise SystemExit(f"no native library: {note}")
+    model = native.NativeModel(RobotInfo.from_robot(robot), code, "recursive", module)
+    n = len(model.initial_state())
+    rng = np.random.default_rng(0)
+    states = rng.uniform(-0.5, 0.5, (calls, n))
+    start = time.process_time()
+    for x in states:
+        model.rhs(0.0, x)
+    ours = (time.process_time() - start) / calls
+    pmodel = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
+    rhs = pinocchio_fall.derivative(pmodel, pmodel.createData())
+    qs = [pin.randomConfiguration(pmodel, -np.ones(pmodel.nq), np.ones(pmodel.nq))
+          for _ in range(calls)]
+    xs = [np.concatenate([q, v]) for q, v in zip(qs, rng.uniform(-0.5, 0.5, (calls, pmodel.nv)))]
+    start = time.process_time()
+    for x in xs:
+        rhs(x)
+    theirs = (time.process_time() - start) / calls
+    return ours, theirs
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--calls", type=int, default=2000)
+    args = parser.parse_args()
+    import pinocchio as pin
+
+    share = Path(pin.__file__).resolve().parents[4] / "share" / "example-robot-data" / "robots"
+    work = Path(tempfile.mkdtemp(prefix="anadyn-floating-"))
+    os.environ["ANADYN_CACHE_DIR"] = str(work / "cache-inprocess")       # per_call's build
+    script = HERE / "pinocchio_fall.py"
+    print("| robot | DOF | per call anadyn / Pinocchio | cold CPU | cold wall | warm CPU "
+          "| warm wall | end states agree |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name, relative in ROBOTS.items():
+        urdf = share / relative
+        ours, theirs = per_call(urdf, args.calls)
+        cache = work / f"cache-{name}"
+        env = {**os.environ, "ANADYN_CACHE_DIR": str(cache), "ANADYN_PROGRESS": "off"}
+        command = [sys.executable, "-m", "anadyn_cli", "simulate", str(urdf),
+                   "--floating-base", "--inertia", "accept", "--t-end", "1", "--no-plot",
+                   "--out", str(work / name)]
+        cold_cpu, cold_wall, _ = cpu_of(command, env)
+        warm = [cpu_of(command, env) for _ in range(args.repeat)]
+        report = json.loads((work / name / "simulate.json").read_text())
+        background = report.get("timings", {}).get("background_build_cpu", 0.0) or 0.0
+        pin_runs = [cpu_of([sys.executable, str(script), str(urdf), str(work / f"{name}.csv")])
+                    for _ in range(args.repeat)]
+        pin_cpu = min(r[0] for r in pin_runs)
+        pin_wall = min(r[1] for r in pin_runs)
+        ours_end = np.genfromtxt(work / name / "simulate.csv", delimiter=",", names=True)
+        theirs_end = np.loadtxt(work / f"{name}.csv", delimiter=",")[-1]
+        base = [c for c in ours_end.dtype.names if c.endswith("_z")][0]
+        agree = abs(ours_end[base][-1] - theirs_end[3]) < 1e-8
+        nv = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer()).nv
+        print(f"| {name} | {nv} | {ours / theirs:.2f} ({ours * 1e6:.1f} / {theirs * 1e6:.1f} "
+              f"us) | {(cold_cpu + background) / pin_cpu:.2f} | {cold_wall / pin_wall:.2f} "
+              f"| {min(w[0] for w in warm) / pin_cpu:.2f} | {min(w[1] for w in warm) / pin_wall:.2f} "
+              f"| {'yes' if agree else 'NO'} |")
+
+
+if __name__ == "__main__":
+    main()
