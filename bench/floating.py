@@ -29,8 +29,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
-import subprocess
 import sys
 import tempfile
 import time
@@ -43,22 +41,11 @@ sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
 import pinocchio_fall  # noqa: E402  (bench/, beside this file)
+from cold import example_robot, timed  # noqa: E402
 
 ROBOTS = {"solo12": "solo_description/robots/solo12.urdf",
           "g1": "g1_description/urdf/g1_29dof_rev_1_0.urdf"}
 
-
-
-def cpu_of(command: list[str], env=None) -> tuple[float, float, subprocess.CompletedProcess]:
-    """(CPU s of the child and what it waited for, wall s, the process)."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, env=env)
-    wall = time.perf_counter() - start
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if done.returncode:
-        raise SystemExit(f"{' '.join(command)} failed:\n{done.stderr}")
-    return (after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime), wall, done
 
 
 def per_call(urdf: Path, calls: int) -> tuple[float, float]:
@@ -104,7 +91,6 @@ def main() -> None:
     args = parser.parse_args()
     import pinocchio as pin
 
-    share = Path(pin.__file__).resolve().parents[4] / "share" / "example-robot-data" / "robots"
     work = Path(tempfile.mkdtemp(prefix="anadyn-floating-"))
     os.environ["ANADYN_CACHE_DIR"] = str(work / "cache-inprocess")       # per_call's build
     script = HERE / "pinocchio_fall.py"
@@ -112,21 +98,21 @@ def main() -> None:
           "| warm wall | end states agree |")
     print("|---|---|---|---|---|---|---|---|")
     for name, relative in ROBOTS.items():
-        urdf = share / relative
+        urdf = example_robot(relative)
         ours, theirs = per_call(urdf, args.calls)
         cache = work / f"cache-{name}"
         env = {**os.environ, "ANADYN_CACHE_DIR": str(cache), "ANADYN_PROGRESS": "off"}
         command = [sys.executable, "-m", "anadyn_cli", "simulate", str(urdf),
                    "--floating-base", "--inertia", "accept", "--t-end", "1", "--no-plot",
                    "--out", str(work / name)]
-        cold_cpu, cold_wall, _ = cpu_of(command, env)
-        warm = [cpu_of(command, env) for _ in range(args.repeat)]
+        cold_wall, cold_cpu = timed(command, env)
+        warm = [timed(command, env) for _ in range(args.repeat)]
         report = json.loads((work / name / "simulate.json").read_text())
         background = report.get("timings", {}).get("background_build_cpu", 0.0) or 0.0
-        pin_runs = [cpu_of([sys.executable, str(script), str(urdf), str(work / f"{name}.csv")])
-                    for _ in range(args.repeat)]
-        pin_cpu = min(r[0] for r in pin_runs)
-        pin_wall = min(r[1] for r in pin_runs)
+        pin_runs = [timed([sys.executable, str(script), str(urdf), str(work / f"{name}.csv")],
+                          dict(os.environ)) for _ in range(args.repeat)]
+        pin_wall = min(r[0] for r in pin_runs)
+        pin_cpu = min(r[1] for r in pin_runs)
         ours_end = np.genfromtxt(work / name / "simulate.csv", delimiter=",", names=True)
         theirs_end = np.loadtxt(work / f"{name}.csv", delimiter=",")[-1]
         base = [c for c in ours_end.dtype.names if c.endswith("_z")][0]
@@ -134,7 +120,7 @@ def main() -> None:
         nv = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer()).nv
         print(f"| {name} | {nv} | {ours / theirs:.2f} ({ours * 1e6:.1f} / {theirs * 1e6:.1f} "
               f"us) | {(cold_cpu + background) / pin_cpu:.2f} | {cold_wall / pin_wall:.2f} "
-              f"| {min(w[0] for w in warm) / pin_cpu:.2f} | {min(w[1] for w in warm) / pin_wall:.2f} "
+              f"| {min(w[1] for w in warm) / pin_cpu:.2f} | {min(w[0] for w in warm) / pin_wall:.2f} "
               f"| {'yes' if agree else 'NO'} |")
 
 
