@@ -293,7 +293,7 @@ def test_a_scheduler_that_never_answers_is_one_line_and_exit_2(
         silent_scheduler, tmp_path, capsys, monkeypatch, command):
     pytest.importorskip("distributed")
     address, accepted = silent_scheduler
-    monkeypatch.setattr(executors, "ANSWER_TIMEOUT", 1.0)
+    monkeypatch.setattr(executors.cluster, "ANSWER_TIMEOUT", 1.0)
     config = tmp_path / "batch.yaml"
     config.write_text(f"jobs:\n  - {{command: simulate, robot: {RR}}}\n")
     argv = ({"sweep": ["sweep", str(RR), "--vary", "m2=1,2"],

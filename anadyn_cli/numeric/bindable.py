@@ -127,114 +127,135 @@ def fold(robot: Robot, text: str, names: tuple[str, ...]) -> Folding:
     if len(set(names)) != len(names):
         twice = next(n for n in names if names.count(n) > 1)
         raise ModelError(f"--vary {twice}: given twice; vary each name once")
-    free = {n: free_symbol(n) for n in names}
-    free_set = set(free.values())
-    params = {n: free[n] for n in names if known[n] == "parameter"}
-    data, _ = yamlschema.load(text, robot.source)
-    symbols = {name: sp.Symbol(name, real=True) for name in robot.parameters}
-    copy = PartlyFolded(**{f.name: getattr(robot, f.name) for f in fields(Robot)},
-                        free=MappingProxyType(params))
-    values = copy.parameter_substitution()
-    follows: dict[str, list[str]] = {"parameters": [], "gains": [], "initial": [],
-                                     "trajectory": []}
-    follows["parameters"] = [name for name in robot.parameters if name not in free
-                             and values[symbols[name]].free_symbols & free_set]
+    folder = _Folder(robot, text, names, known)
+    changes: dict[str, object] = {}
+    if robot.controller is not None:
+        changes["controller"] = folder.controller()
+    changes["coordinates"] = folder.coordinates()
+    if robot.trajectory is not None:
+        changes["trajectory"] = folder.trajectory()
+    folder.check_fixed()
+    nominal = {}
+    for name in names:
+        value = (robot.parameter_substitution()[folder.symbols[name]]
+                 if known[name] == "parameter" else robot.controller.gains[name])
+        nominal[name] = float(value)
+    return Folding(replace(folder.copy, **changes), tuple(names),
+                   MappingProxyType({n: known[n] for n in names}), MappingProxyType(nominal),
+                   MappingProxyType({k: tuple(v) for k, v in folder.follows.items()}),
+                   tuple(folder.unchecked))
 
-    def depends(raw, names_table, extra: Mapping = MappingProxyType({})) -> sp.Expr | None:
+
+class _Folder:
+    """The sections of a robot file read again with some names kept free: what follows
+    from them (``follows``: section -> entries) and the fields that change."""
+
+    def __init__(self, robot: Robot, text: str, names: tuple[str, ...], known: dict):
+        self.robot, self.names = robot, names
+        self.free = {n: free_symbol(n) for n in names}
+        self.free_set = set(self.free.values())
+        params = {n: self.free[n] for n in names if known[n] == "parameter"}
+        self.data, _ = yamlschema.load(text, robot.source)
+        self.symbols = {name: sp.Symbol(name, real=True) for name in robot.parameters}
+        self.copy = PartlyFolded(**{f.name: getattr(robot, f.name) for f in fields(Robot)},
+                                 free=MappingProxyType(params))
+        self.values = self.copy.parameter_substitution()
+        self.follows: dict[str, list[str]] = {
+            "parameters": [name for name in robot.parameters if name not in self.free
+                           and self.values[self.symbols[name]].free_symbols & self.free_set],
+            "gains": [], "initial": [], "trajectory": []}
+        self.unchecked: list = []
+
+    def depends(self, raw, names_table, extra: Mapping = MappingProxyType({})) -> sp.Expr | None:
         """The raw field as an expression of the free symbols, None if it has none."""
         if raw is None:
             return None
-        expr = expressions.parse(raw, names_table).xreplace(values).xreplace(dict(extra))
-        return expr if expr.free_symbols & free_set else None
+        expr = expressions.parse(raw, names_table).xreplace(self.values).xreplace(dict(extra))
+        return expr if expr.free_symbols & self.free_set else None
 
-    changes: dict[str, object] = {}
-    # controller gains: varied, computed from varied names, or the loader's numbers
-    if robot.controller is not None:
-        raw_gains = (data.get("controller") or {}).get("gains") or {}
+    def controller(self) -> Controller:
+        """Controller gains: varied, computed from varied names, or the loader's numbers."""
+        raw_gains = (self.data.get("controller") or {}).get("gains") or {}
         gains: dict[str, sp.Expr] = {}
-        table = dict(symbols)
-        for name, value in robot.controller.gains.items():
-            expr = None if name in free else depends(raw_gains.get(name), table, {
+        table = dict(self.symbols)
+        for name, value in self.robot.controller.gains.items():
+            expr = None if name in self.free else self.depends(raw_gains.get(name), table, {
                 sp.Symbol(k, real=True): v for k, v in gains.items()})
-            if name in free:
-                gains[name] = free[name]
+            if name in self.free:
+                gains[name] = self.free[name]
             elif expr is not None:
                 gains[name] = expr
-                follows["gains"].append(name)
+                self.follows["gains"].append(name)
             else:
                 gains[name] = value
             table[name] = sp.Symbol(name, real=True)
-        changes["controller"] = Controller(MappingProxyType(gains), robot.controller.laws)
-    # initial values and rates
-    raw_coordinates = data.get("coordinates") or {}
-    coordinates = []
-    for c in robot.coordinates:
-        raw = raw_coordinates.get(c.name) or {}
-        initial, rate = depends(raw.get("initial"), symbols), depends(raw.get("rate"), symbols)
-        if initial is not None or rate is not None:
-            follows["initial"].append(c.name)
-        coordinates.append(Coordinate(c.name, c.initial if initial is None else initial,
-                                      c.rate if rate is None else rate, c.unit))
-    changes["coordinates"] = tuple(coordinates)
-    # trajectory
-    if robot.trajectory is not None:
-        raw = data.get("trajectory") or {}
-        tr = robot.trajectory
-        duration = depends(raw.get("duration"), symbols)
+        return Controller(MappingProxyType(gains), self.robot.controller.laws)
+
+    def coordinates(self) -> tuple[Coordinate, ...]:
+        """Initial values and rates."""
+        raw_coordinates = self.data.get("coordinates") or {}
+        coordinates = []
+        for c in self.robot.coordinates:
+            raw = raw_coordinates.get(c.name) or {}
+            initial = self.depends(raw.get("initial"), self.symbols)
+            rate = self.depends(raw.get("rate"), self.symbols)
+            if initial is not None or rate is not None:
+                self.follows["initial"].append(c.name)
+            coordinates.append(Coordinate(c.name, c.initial if initial is None else initial,
+                                          c.rate if rate is None else rate, c.unit))
+        return tuple(coordinates)
+
+    def trajectory(self) -> Trajectory:
+        raw = self.data.get("trajectory") or {}
+        tr = self.robot.trajectory
+        duration = self.depends(raw.get("duration"), self.symbols)
         ends = {}
         for key, folded in (("from", tr.start), ("to", tr.end)):
             ends[key] = {}
             for name, value in folded.items():
-                expr = depends((raw.get(key) or {}).get(name), symbols)
+                expr = self.depends((raw.get(key) or {}).get(name), self.symbols)
                 ends[key][name] = value if expr is None else expr
                 if expr is not None:
-                    follows["trajectory"].append(f"{key}.{name}")
+                    self.follows["trajectory"].append(f"{key}.{name}")
         paths = {}
         for name, value in tr.expressions.items():
-            expr = depends((raw.get("expressions") or {}).get(name),
-                           {**symbols, "t": trajectory.T})
+            expr = self.depends((raw.get("expressions") or {}).get(name),
+                                {**self.symbols, "t": trajectory.T})
             paths[name] = value if expr is None else expr
             if expr is not None:
-                follows["trajectory"].append(f"expressions.{name}")
+                self.follows["trajectory"].append(f"expressions.{name}")
         if duration is not None:
-            follows["trajectory"].insert(0, "duration")
-        changes["trajectory"] = Trajectory(
-            tr.kind, tr.duration if duration is None else duration,
-            MappingProxyType(ends["from"]), MappingProxyType(ends["to"]),
-            MappingProxyType(paths))
-    # the file's joint limits are checked at their values in the file
-    unchecked = []
-    for item in data.get("bodies") or []:
-        if not isinstance(item, dict):
-            continue
-        if ((item.get("inertia") or {}).get("triangle_inequality") == "ignore"):
-            unchecked.append(item.get("name"))
-        for key, value in (((item.get("joint") or {}).get("limits") or {}).items()):
-            expr = expressions.parse(value, symbols).xreplace(values)
-            used = sorted(n for n in names if free[n] in expr.free_symbols)
-            if used:
-                raise ModelError(f"--vary {used[0]}: the limits of body {item.get('name')}'s "
-                                 f"joint ({key}) in {robot.source} depend on it; a sweep "
-                                 "checks the file's limits at their values (give them as "
-                                 "numbers, or as --max/--min bounds)")
-    # the run's settings stay fixed
-    for key, value in ((data.get("simulation") or {}).items()):
-        if key != "method" and depends(value, symbols) is not None:
-            used = sorted(n for n in names if free[n] in
-                          expressions.parse(value, symbols).xreplace(values).free_symbols)
-            raise ModelError(f"--vary {used[0]}: simulation.{key} in {robot.source} depends "
-                             f"on it; a sweep keeps the run's settings fixed (give them as "
-                             f"numbers, or on the command line)")
-    copy = replace(copy, **changes)
-    nominal = {}
-    for name in names:
-        value = (robot.parameter_substitution()[symbols[name]] if known[name] == "parameter"
-                 else robot.controller.gains[name])
-        nominal[name] = float(value)
-    return Folding(copy, tuple(names), MappingProxyType({n: known[n] for n in names}),
-                   MappingProxyType(nominal),
-                   MappingProxyType({k: tuple(v) for k, v in follows.items()}),
-                   tuple(unchecked))
+            self.follows["trajectory"].insert(0, "duration")
+        return Trajectory(tr.kind, tr.duration if duration is None else duration,
+                          MappingProxyType(ends["from"]), MappingProxyType(ends["to"]),
+                          MappingProxyType(paths))
+
+    def check_fixed(self) -> None:
+        """The file's joint limits are checked at their values in the file, and the run's
+        settings stay fixed: neither may depend on a varied name."""
+        symbols, names = self.symbols, self.names
+        for item in self.data.get("bodies") or []:
+            if not isinstance(item, dict):
+                continue
+            if (item.get("inertia") or {}).get("triangle_inequality") == "ignore":
+                self.unchecked.append(item.get("name"))
+            for key, value in (((item.get("joint") or {}).get("limits") or {}).items()):
+                expr = expressions.parse(value, symbols).xreplace(self.values)
+                used = sorted(n for n in names if self.free[n] in expr.free_symbols)
+                if used:
+                    raise ModelError(
+                        f"--vary {used[0]}: the limits of body {item.get('name')}'s joint "
+                        f"({key}) in {self.robot.source} depend on it; a sweep checks the "
+                        "file's limits at their values (give them as numbers, or as "
+                        "--max/--min bounds)")
+        for key, value in ((self.data.get("simulation") or {}).items()):
+            if key != "method" and self.depends(value, symbols) is not None:
+                used = sorted(n for n in names if self.free[n] in expressions.parse(
+                    value, symbols).xreplace(self.values).free_symbols)
+                raise ModelError(
+                    f"--vary {used[0]}: simulation.{key} in {self.robot.source} depends on "
+                    "it; a sweep keeps the run's settings fixed (give them as numbers, or on "
+                    "the command line)")
 
 
 def source(folding: Folding, formulation: str = "kane",
