@@ -241,7 +241,6 @@ def test_simulate_writes_contact_columns_and_events(tmp_path):
     (["simulate", "--formulation", "kane"], "closed forms"),
     (["inverse"], "inverse dynamics"),
     (["linearize"], "linearizations (linearize)"),
-    (["show"], "drawings (show, animate, view)"),
 ])
 def test_what_does_not_know_contacts_refuses_them(tmp_path, capsys, argv, what):
     scene = tmp_path / "drop.yaml"

@@ -60,12 +60,13 @@ def animate(
     start = time.perf_counter()
     timings: dict = {}
     computation: dict = {}
+    columns: dict = {}          # the run's contact forces, by column name
     if source is not None:
         from ..numeric.frames import frames as kinematics
 
         with progress.task("forward kinematics"):
             fk = kinematics(robot, use_cache=cache)
-        t, q = service.read_run(source, fk.skeleton)
+        t, q, columns = service.read_run(source, fk.skeleton)
         name, what = fk.skeleton.name, f"{source.name}"
     else:
         model = prepared_model(robot, formulation, evaluator, cache, timings)
@@ -86,22 +87,34 @@ def animate(
                 simulation.write(result, out_dir(out, name), plot=False)   # raises
             n = len(result.robot.coordinates)
             t, q, what = result.t, result.x[:, :n], f"simulated, {result.solution.method}"
+            columns = force_columns(result)
         computation = {"formulation": result.formulation, "evaluator": result.evaluator}
     played = "animate" if source is not None else f"animate {motion.value}"
     written, note = animate_run(robot, t, q, title or f"{name}: {played}", out_dir(out, name), frames=frames, mp4=mp4, cache=cache,
                                 timings=timings, size=size, font_size=font_size,
-                                computation=computation)
+                                computation=computation, columns=columns)
     typer.echo(f"{name}: {len(t)} rows over {t[-1]:g} s ({what}); {note}")
     typer.echo(time_line(timings, start))
     typer.echo("wrote " + ", ".join(str(p) for p in written))
 
 
+def force_columns(result) -> dict:
+    """A simulation's contact force columns (``<contact>_fn``, ``_ft1``, ``_ft2``)."""
+    if result.contacts is None:
+        return {}
+    header, data = result.table()
+    wanted = {f"{name}{part}" for name in result.contacts.names
+              for part in ("_fn", "_ft1", "_ft2")}
+    return {name: values for name, values in zip(header, data) if name in wanted}
+
+
 def animate_run(robot: Path, t, q, title: str, out: Path, frames: int = 150, mp4: bool = True,
                 cache: bool = True, timings: dict | None = None, size=None,
-                font_size: float | None = None,
-                computation: dict | None = None) -> tuple[list[Path], str]:
+                font_size: float | None = None, computation: dict | None = None,
+                columns: dict | None = None) -> tuple[list[Path], str]:
     """animate.gif (+ .mp4) of ``robot`` moving through ``q`` (rows x n) at times ``t``;
-    ``size`` in inches at 100 dpi, ``font_size`` in points (None: the defaults)."""
+    ``size`` in inches at 100 dpi, ``font_size`` in points (None: the defaults); the
+    contact forces drawn from ``columns`` (the run's ``<contact>_fn`` ... columns)."""
     import time
 
     from ..numeric.frames import frames as kinematics
@@ -114,7 +127,7 @@ def animate_run(robot: Path, t, q, title: str, out: Path, frames: int = 150, mp4
         fk = kinematics(robot, use_cache=cache)
     animation = service.animate(fk, t, q, title, max_frames=frames,
                                 size=size or service.FRAME_SIZE,
-                                font=font_size or service.FRAME_FONT)
+                                font=font_size or service.FRAME_FONT, columns=columns)
     animation.computation = dict(computation or {})
     written, note = service.write_animation(animation, out, mp4=mp4)
     timings["animate"] = time.perf_counter() - start

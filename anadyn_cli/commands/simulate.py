@@ -56,12 +56,13 @@ def simulate(
                                 plot_format=plot_format.value, rates=rates)
     note = ""
     if animate:
-        from .animate import animate_run
+        from .animate import animate_run, force_columns
         n = len(info.coordinates)
         movie, note = animate_run(robot, result.t, result.x[:, :n], f"{info.name}: simulate",
                                   out_dir(out, info.name), cache=cache, timings=result.timings,
                                   computation={"formulation": result.formulation,
-                                               "evaluator": result.evaluator})
+                                               "evaluator": result.evaluator},
+                                  columns=force_columns(result))
         written = written[:-1] + movie[:-1] + written[-1:] + movie[-1:]
     solution = result.solution
     echo_table(service.table(result), "simulate.csv")

@@ -18,12 +18,14 @@ describe, not a second model of it:
                                                 (the far end of a uniform bar)
 
 with origin = r_i - R_i c_i.  The generated code and a plain-types
-``Skeleton`` (names, tree, joint types) are stored in the derivation cache
-under the key "frames", so an animation of a cached robot needs no SymPy.
+``Skeleton`` (names, tree, joint types, the contacts' numbers) are stored in the
+derivation cache under the key "frames", so an animation of a cached robot needs
+no SymPy.  A contact's sphere centre in world axes is origin_b + R_b c (``Contact``:
+its body b and centre c in body axes, as ``numeric.contact`` plans it).
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
@@ -44,6 +46,7 @@ class Skeleton:
     joint_types: tuple[str, ...]            # type words of model.joints.JOINT_TYPES
     displacements: tuple[str, ...]          # the joint displacement as written, "q2 - q1"
     gravity: tuple[float, float, float]     # world axes, m/s^2
+    contacts: tuple = ()                    # ``Contact`` fields as dicts (JSON-storable)
 
     def children(self, i: int) -> list[int]:
         return [k for k, p in enumerate(self.parents) if p == i]
@@ -51,6 +54,58 @@ class Skeleton:
     @classmethod
     def from_dict(cls, data: dict) -> "Skeleton":
         return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()})
+
+    def contact_list(self) -> list["Contact"]:
+        return [Contact(**c) for c in self.contacts]
+
+
+@dataclass(frozen=True)
+class Contact:
+    """What a drawing needs of a contact: a sphere of ``radius`` (0: a point) centred at
+    ``centre`` (body axes) on body ``body`` (an index), against the plane
+    ``normal`` . x = ``height`` (world axes; the force along normal, t1 and t2) or, when
+    ``partner`` is an index, against the sphere of ``partner_radius`` at
+    ``partner_centre`` on that body."""
+    name: str
+    body: int
+    centre: list
+    radius: float
+    normal: list                      # [] for a pair (its normal turns)
+    tangents: list
+    height: float
+    partner: int | None = None
+    partner_centre: list | None = None
+    partner_radius: float = 0.0
+
+    def world_centre(self, poses: "Poses") -> np.ndarray:
+        """(..., 3): the sphere's centre at every configuration of ``poses``."""
+        return poses.origin[..., self.body, :] + np.einsum(
+            "...ij,j->...i", poses.R[..., self.body, :, :], np.asarray(self.centre, float))
+
+    def partner_world_centre(self, poses: "Poses") -> np.ndarray:
+        return poses.origin[..., self.partner, :] + np.einsum(
+            "...ij,j->...i", poses.R[..., self.partner, :, :],
+            np.asarray(self.partner_centre, float))
+
+    def normal_at(self, poses: "Poses") -> np.ndarray:
+        """(..., 3): the unit normal the contact's force acts along (the ground's, or
+        from the partner's centre to this sphere's)."""
+        if self.partner is None:
+            return np.broadcast_to(np.asarray(self.normal, float),
+                                   poses.origin.shape[:-2] + (3,))
+        gap = self.world_centre(poses) - self.partner_world_centre(poses)
+        length = np.linalg.norm(gap, axis=-1, keepdims=True)
+        return gap / np.where(length > 0, length, 1.0)
+
+    def force_point(self, poses: "Poses") -> np.ndarray:
+        """(..., 3): where the force acts: the sphere's lowest point c - radius n on a
+        ground, the middle of the overlap c - (radius - d/2) n against a partner."""
+        c, n = self.world_centre(poses), self.normal_at(poses)
+        if self.partner is None:
+            return c - self.radius * n
+        gap = np.linalg.norm(c - self.partner_world_centre(poses), axis=-1, keepdims=True)
+        depth = self.radius + self.partner_radius - gap
+        return c - (self.radius - depth / 2) * n
 
 
 @dataclass(frozen=True)
@@ -97,7 +152,6 @@ def source(robot) -> tuple[Skeleton, str]:
     from ..symbolic import kinematics
     from .codegen import Function, module_source
 
-    robot.refuse_contacts("drawings (show, animate, view)")
     kin = kinematics.build(robot)
     origins, rotations, coms, joints, axes, tips = [], [], [], [], [], []
     for k, b in enumerate(kin.bodies):
@@ -140,8 +194,20 @@ def source(robot) -> tuple[Skeleton, str]:
         displacements=tuple(sp.sstr(b.joint.displacement, order="none")
                             if b.joint.joint_type.moving else ""
                             for b in robot.bodies),
-        gravity=tuple(float(g.xreplace(values)) for g in robot.gravity))
+        gravity=tuple(float(g.xreplace(values)) for g in robot.gravity),
+        contacts=_contacts(robot, values))
     return skeleton, code
+
+
+def _contacts(robot, values) -> tuple:
+    """The contacts' numbers (``numeric.contact.contact_plans``) a drawing needs."""
+    from .contact import contact_plans
+
+    index = {b.name: i for i, b in enumerate(robot.bodies)}
+    wanted = [f.name for f in fields(Contact)]
+    return tuple({k: v for k, v in asdict(plan).items() if k in wanted}
+                 for plan in contact_plans(robot, lambda e: float(e.xreplace(values) if hasattr(e, "xreplace") else e),
+                               index))
 
 
 def frames(robot, use_cache: bool = False) -> Frames:

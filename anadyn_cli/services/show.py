@@ -138,6 +138,23 @@ def draw(frames: Frames, at=()) -> Drawing:
     return Drawing(frames.skeleton, q, frames(q), not at, normal=plane_normal(frames))
 
 
+def contact_points(skeleton: Skeleton, pose: Poses) -> dict:
+    """Each contact's sphere centre and radius, and its ground or partner (show.json)."""
+    found = {}
+    for c in skeleton.contact_list():
+        found[c.name] = {"body": skeleton.bodies[c.body], "centre": c.world_centre(pose).tolist(),
+                         "radius": c.radius}
+        if c.partner is None:
+            found[c.name]["ground"] = {"normal": list(c.normal), "height": c.height,
+                                       "gap": float(np.dot(c.normal, c.world_centre(pose))
+                                                    - c.height - c.radius)}
+        else:
+            found[c.name]["partner"] = {"body": skeleton.bodies[c.partner],
+                                        "centre": c.partner_world_centre(pose).tolist(),
+                                        "radius": c.partner_radius}
+    return found
+
+
 def points(d: Drawing) -> dict:
     """Every drawn point, body by body (show.json)."""
     pose, sk = d.pose, d.skeleton
@@ -168,14 +185,17 @@ def write_drawing(d: Drawing, out: Path, plot_format: str = "png") -> list[Path]
         "robot": d.skeleton.name, "initial_pose": d.initial,
         "pose": dict(zip(d.skeleton.coordinates, d.q.tolist())),
         "units": dict(zip(d.skeleton.coordinates, d.skeleton.units)),
-        "bodies": points(d), "timings": d.timings})
+        "bodies": points(d), **({"contacts": contact_points(d.skeleton, d.pose)}
+                                if d.skeleton.contacts else {}),
+        "timings": d.timings})
     return written
 
 
 # -- animation -----------------------------------------------------------------------
-def read_run(path: Path, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray]:
-    """(t, q rows x n) from a run's CSV (simulate.csv, inverse.csv: a ``t`` column and
-    one per coordinate of ``skeleton``); ModelError naming the file otherwise."""
+def read_run(path: Path, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(t, q rows x n, the contact force columns there: name -> values) from a run's CSV
+    (simulate.csv, inverse.csv: a ``t`` column and one per coordinate of ``skeleton``);
+    ModelError naming the file otherwise."""
     import csv
 
     from ..errors import ModelError
@@ -192,7 +212,9 @@ def read_run(path: Path, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray]:
     if missing:
         raise ModelError(f"no column {missing[0]!r}: a simulate.csv or inverse.csv of "
                          f"{skeleton.name} has {', '.join(wanted)}", source=str(path))
-    columns = [header.index(name) for name in wanted]
+    forces = [f"{c['name']}{part}" for c in skeleton.contacts
+              for part in ("_fn", "_ft1", "_ft2") if f"{c['name']}{part}" in header]
+    columns = [header.index(name) for name in [*wanted, *forces]]
     try:
         data = np.array([[float(row[k]) for k in columns] for row in rows[1:]])
     except (ValueError, IndexError):
@@ -201,7 +223,8 @@ def read_run(path: Path, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray]:
     if len(data) < 2 or not np.isfinite(data).all() or (np.diff(data[:, 0]) <= 0).any():
         raise ModelError("expected two or more rows of finite numbers with t increasing",
                          source=str(path))
-    return data[:, 0], data[:, 1:]
+    n = len(wanted)
+    return data[:, 0], data[:, 1:n], {name: data[:, n + k] for k, name in enumerate(forces)}
 
 
 @dataclass
@@ -245,20 +268,27 @@ class Animation:
 
 def animate(frames: Frames, t: np.ndarray, q: np.ndarray, title: str,
             max_frames: int = MAX_FRAMES, size=FRAME_SIZE, font: float = FRAME_FONT,
-            dpi: int = FRAME_DPI) -> Animation:
+            dpi: int = FRAME_DPI, columns: dict | None = None) -> Animation:
     """Frames of the robot moving through ``q`` (rows x n) at times ``t``: ``size``
-    in inches at ``dpi``, ``font`` the axis labels' size in points."""
+    in inches at ``dpi``, ``font`` the axis labels' size in points; the contact forces
+    drawn from the run's ``columns`` (name -> values per row: ``<contact>_fn``, ...)."""
     start = time.perf_counter()
     chosen = plan(t, max_frames)
     poses = frames(q[chosen.rows])
-    box = drawing.Frame.around(poses)
+    forces = None
+    if columns and frames.skeleton.contacts:
+        forces = drawing.contact_forces(frames.skeleton, poses, {
+            name: np.asarray(values)[chosen.rows] for name, values in columns.items()})
+    largest = float(np.linalg.norm(forces, axis=-1).max()) if forces is not None else 0.0
+    box = drawing.Frame.around(poses, frames.skeleton, largest)
     movie = drawing.Animation(frames.skeleton, box, title, size=size, dpi=dpi,
                               normal=plane_normal(frames), font=font)
     images = []
     with progress.task(f"drawing {len(chosen.rows)} frames of {frames.skeleton.name}",
                        total=len(chosen.rows)) as step:
         for j, k in enumerate(chosen.rows):
-            images.append(movie.frame(poses.at(j), float(t[k]), chosen.note))
+            images.append(movie.frame(poses.at(j), float(t[k]), chosen.note,
+                                      None if forces is None else forces[j]))
             step.advance()
     return Animation(frames.skeleton, t[chosen.rows], chosen, images, title,
                      {"frames": time.perf_counter() - start})

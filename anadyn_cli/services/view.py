@@ -17,7 +17,11 @@ and either a run to play or the data for live sliders.
   robot's size long at its largest size: every actuator whose effort column
   is in the run, along its joint axis at the joint (right-hand rule for a
   torque), red; every load's force at its point, from the file's expressions
-  of t, q, dq at the run's rows (rates from its d<q> columns), purple.
+  of t, q, dq at the run's rows (rates from its d<q> columns), purple;
+  every contact's force (its ``<contact>_fn``, ``_ft1``, ``_ft2`` columns) where
+  it acts, green.
+- Contacts (a ``contacts`` section): each sphere on its body (a point: a small
+  sphere), each ground plane a thin translucent box whose top face is the plane.
 - Without a run, live mode: a slider per coordinate.  Each body's joint
   frame in its parent's frame, axis and displacement d = gains . q + offset
   go to the page, which turns the body by d.  This needs displacements
@@ -40,7 +44,9 @@ from ..model.joints import JOINT_TYPES
 
 MAX_FRAMES = 600
 MAX_RUN_BYTES = 256 * 1024 * 1024
-EFFORT_COLOR, LOAD_COLOR = "#d62728", "#9467bd"
+EFFORT_COLOR, LOAD_COLOR, CONTACT_FORCE_COLOR = "#d62728", "#9467bd", "#16a085"
+CONTACT_COLOR = (0.09, 0.63, 0.52, 0.55)          # RGBA: the contact spheres
+GROUND_COLOR = (0.55, 0.55, 0.55, 0.35)           # RGBA: the ground planes
 PALETTE = ((0.12, 0.47, 0.71), (1.0, 0.5, 0.05), (0.17, 0.63, 0.17), (0.58, 0.4, 0.74),
            (0.55, 0.34, 0.29), (0.09, 0.75, 0.81), (0.74, 0.74, 0.13), (0.84, 0.15, 0.16))
 
@@ -170,9 +176,12 @@ def view(robot, run: Run | None = None, urdf: Path | None = None, package_paths=
     if urdf is None and str(robot.source).lower().endswith(".urdf"):
         urdf = Path(robot.source)
     shapes, meshes, warnings = _shapes(sk, reference, extent, urdf, package_paths)
+    shapes += _contact_shapes(sk, extent)
     timings["meshes"] = time.perf_counter() - start
     live, note = (None, "") if run is not None else _live(robot)
     arrows = _arrows(robot, run, chosen, poses, extent) if run is not None else []
+    if run is not None and sk.contacts:
+        arrows += _contact_arrows(sk, run, chosen, poses, extent)
     gravity = np.array(sk.gravity, dtype=float)
     up = -gravity / np.linalg.norm(gravity) if np.linalg.norm(gravity) > 0 else np.array([0, 0, 1.])
     matrices = np.concatenate([poses.R, poses.origin[..., None]], axis=-1)    # (F, b, 3, 4)
@@ -257,6 +266,45 @@ def _generated(i: int, sk, pose, radius: float) -> list[dict]:
         shapes.append({"body": i, "kind": "box", "size": [radius * 2.4] * 3,
                        "matrix": _flat(np.eye(4)), "color": color})
     return shapes
+
+
+def _contact_shapes(sk, extent: float) -> list[dict]:
+    """Each contact's sphere (a point: a small one) on its body, and each ground plane as
+    a thin translucent box on the ground, 4 ``extent`` across, its top face the plane
+    (a backdrop: the camera frames the robot without it)."""
+    shapes, seen = [], set()
+    for c in sk.contact_list():
+        place = np.eye(4)
+        place[:3, 3] = c.centre
+        shapes.append({"body": c.body, "kind": "sphere",
+                       "size": [c.radius if c.radius > 0 else 0.01 * extent],
+                       "matrix": _flat(place), "color": list(CONTACT_COLOR)})
+        if c.partner is not None or (tuple(c.normal), c.height) in seen:
+            continue
+        seen.add((tuple(c.normal), c.height))
+        n = np.asarray(c.normal, dtype=float)
+        thickness = 0.01 * extent
+        plane = np.eye(4)
+        plane[:3, :3] = np.column_stack([*(np.asarray(v, dtype=float) for v in c.tangents), n])
+        plane[:3, 3] = (c.height - thickness / 2) * n
+        shapes.append({"body": -1, "kind": "box", "size": [4 * extent, 4 * extent, thickness],
+                       "matrix": _flat(plane), "color": list(GROUND_COLOR), "backdrop": True})
+    return shapes
+
+
+def _contact_arrows(sk, run: Run, chosen: np.ndarray, poses, extent: float) -> list[dict]:
+    """The contact forces of the run (its ``<contact>_fn``, ``_ft1``, ``_ft2`` columns)
+    where each acts (``numeric.frames.Contact.force_point``), green."""
+    from ..output.drawing import contact_forces
+
+    forces = contact_forces(sk, poses, {name: values[chosen]
+                                        for name, values in run.columns.items()})
+    arrows = []
+    for k, c in enumerate(sk.contact_list()):
+        if f"{c.name}_fn" in run.columns:
+            arrows.append(_arrow(f"contact {c.name}", "N", c.force_point(poses),
+                                 forces[:, k], extent, CONTACT_FORCE_COLOR))
+    return [a for a in arrows if a is not None]
 
 
 def _along(v: np.ndarray) -> np.ndarray:

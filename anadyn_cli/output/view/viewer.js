@@ -76,6 +76,8 @@ async function main() {
   const ground = new THREE.Group();
   const robot = new THREE.Group();
   robot.add(ground);
+  const backdrop = new THREE.Group();     // ground planes: drawn, not framed by the camera
+  world.add(backdrop);
   for (const shape of scene.shapes) {
     const holder = new THREE.Group();
     holder.matrixAutoUpdate = false;
@@ -93,7 +95,7 @@ async function main() {
       else geometry = new THREE.CylinderGeometry(shape.size[0], shape.size[0], shape.size[1], 24).rotateX(Math.PI / 2);
       holder.add(new THREE.Mesh(geometry, material(shape.color)));
     }
-    (shape.body < 0 ? ground : bodies[shape.body]).add(holder);
+    (shape.backdrop ? backdrop : shape.body < 0 ? ground : bodies[shape.body]).add(holder);
   }
   const axes = bodies.map((body) => {
     const helper = new THREE.AxesHelper(scene.extent * 0.12);
