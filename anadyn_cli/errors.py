@@ -133,7 +133,7 @@ ALLOWED = {
     "t_end": POSITIVE, "output_step": POSITIVE,
     "numeric_tolerance": RELATIVE, "trajectory_tolerance": RELATIVE, "energy_tol": RELATIVE,
     "settle_band": RELATIVE,
-    "roundtrip_tolerance": POSITIVE, "roundtrip_segment": POSITIVE,
+    "roundtrip_tolerance": POSITIVE, "roundtrip_segment": POSITIVE, "contact_gap": POSITIVE,
     "max_condition": POSITIVE,
     "samples": Allowed(1, MAX_SAMPLES, whole=True),
     "seed": Allowed(0, 2**32 - 1, whole=True),

@@ -23,8 +23,8 @@ as in anadyn).  Jobs:
   (largest difference over the largest effort).
 
 anadyn runs in a new process each time: *first*, with a new cache folder in
-which the generic kernel is installed (built once beforehand and copied in,
-as an installation has it); *second*, straight after the first (the robot's
+which what an installation does once is done (``install``: the generic kernel
+built and SciPy's odeint self-check recorded beforehand, copied in); *second*, straight after the first (the robot's
 own code may still be building in the background); *warm*, after that build
 has ended (best of K).  Pinocchio: best of K.  Wall time and CPU time (user +
 system of the process and the children it waits for); the detached
@@ -164,6 +164,22 @@ def motion(coordinates: list[str], path: Path) -> None:
                header=",".join(header), comments="")
 
 
+def install(work: Path) -> Path:
+    """A cache folder as an installation has it after its first run ever: the
+    generic kernel compiled and SciPy's odeint self-check recorded
+    (``numeric.odepack``: else each first run imports scipy.integrate), both once
+    per installation; ``anadyn_runs`` copies its native folder.  Sets
+    ANADYN_CACHE_DIR to it for this process."""
+    installed = work / "installed"
+    os.environ["ANADYN_CACHE_DIR"] = str(installed)
+    os.environ.pop("ANADYN_NATIVE", None)
+    from anadyn_cli.numeric import generic, odepack
+    if generic.kernel() is None:
+        sys.exit("no generic kernel: no C compiler or Python headers")
+    odepack.extension()
+    return installed
+
+
 def building(folder: Path) -> bool:
     """Whether a background build holds a lock in the cache ``folder``."""
     for marker in folder.glob("*.building"):
@@ -220,12 +236,7 @@ def main() -> None:
     args = parser.parse_args()
     work = Path(tempfile.mkdtemp(prefix="anadyn-cold-"))
     base = {k: v for k, v in os.environ.items() if k not in ("ANADYN_NATIVE", "ANADYN_GENERIC")}
-    installed = work / "installed"
-    os.environ["ANADYN_CACHE_DIR"] = str(installed)       # the kernel, built once
-    from anadyn_cli.numeric import generic
-    os.environ.pop("ANADYN_NATIVE", None)
-    if generic.kernel() is None:
-        sys.exit("no generic kernel: no C compiler or Python headers")
+    installed = install(work)
     lines = ["| robot | DOF | job | Pinocchio wall / CPU s | first: wall, CPU | "
              "second: wall, CPU | warm: wall, CPU | background build CPU / wall s | "
              "efforts vs Pinocchio |", "|---|---|---|---|---|---|---|---|---|"]

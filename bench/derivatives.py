@@ -1,6 +1,7 @@
 """Open-loop derivatives (``anadyn.derivatives``) against Pinocchio, in one run.
 
     python3 bench/derivatives.py [--batch N] [--robots ur5,panda,solo12,baxter]
+                                 [--rounds R]
 
 Per call (one state, from Python): anadyn's ``forward_derivatives`` and
 ``inverse_derivatives`` (the C extension; the generated Python in its own column)
@@ -9,13 +10,16 @@ against Pinocchio's ``computeABADerivatives`` and ``computeRNEADerivatives``
 forward dynamics (2 (2n + m) calls of ``forward_dynamics``), on the UR5 (n = 6),
 the Panda with its fingers locked (n = 7; Pinocchio's model reduced the same way),
 Solo-12 (n = 12, a tree of four legs) and, with --robots, example-robot-data's
-Baxter (n = 17), roots welded.  Where a call's time goes: ``kernel`` is the C
-extension called directly on arrays made beforehand (one state), the rest of a
-call is Python (argument checks, arrays, slicing).
+Baxter (n = 17), roots welded.  Where a call's time goes: ``C entry`` is the
+extension's one-state function called directly (its argument checks, the result
+arrays and the kernel), ``kernel`` the kernel alone, per state of a batch of
+BATCH_KERNEL states in one call (no Python, warm caches); the Python method adds
+the rest.  The calls of one robot are timed in turns, R rounds of bursts of calls,
+the thread's CPU time, the best burst of each (the machine is shared and noisy).
 Batched, N states (default 10,000): ``forward_dynamics`` and ``forward_derivatives``
 in one call against a Python loop of Pinocchio's ``aba`` / ``computeABADerivatives``
 and against a Python loop of anadyn's single-state call (timed on N/10 states and
-scaled).  Prints times and ratios (best of a few repeats; the machine is noisy).
+scaled).  Prints times (microseconds per call, seconds per N states) and ratios.
 """
 from __future__ import annotations
 
@@ -29,6 +33,7 @@ import pinocchio as pin
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT))
 
 import anadyn  # noqa: E402
 from anadyn_cli import robot_from_text  # noqa: E402
@@ -37,14 +42,32 @@ from test_generic_kernel import URDFS, erd  # noqa: E402
 
 
 def best(f, repeat: int = 5, number: int = 20) -> float:
-    """Seconds per call of f(), the best of ``repeat`` runs of ``number`` calls."""
+    """CPU seconds (this thread) per call of f(), the best of ``repeat`` runs of
+    ``number`` calls."""
     times = []
     for _ in range(repeat):
-        start = time.perf_counter()
+        start = time.thread_time()
         for _ in range(number):
             f()
-        times.append((time.perf_counter() - start) / number)
+        times.append((time.thread_time() - start) / number)
     return min(times)
+
+
+def in_turns(calls: dict, rounds: int, number: int = 50) -> dict:
+    """CPU seconds (this thread) per call of each of ``calls`` (name -> f), timed in
+    turns: ``rounds`` rounds of a burst of ``number`` calls of each, the best burst."""
+    times = dict.fromkeys(calls, float("inf"))
+    for _ in range(rounds):
+        for name, f in calls.items():
+            start = time.thread_time()
+            for _ in range(number):
+                f()
+            times[name] = min(times[name], (time.thread_time() - start) / number)
+    return times
+
+
+#: states per call when timing the C kernel alone
+BATCH_KERNEL = 100
 
 
 #: robot -> (URDF key, joints locked at 0): the Panda's fingers make n = 8 otherwise
@@ -74,12 +97,13 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--batch", type=int, default=10_000)
     parser.add_argument("--robots", default="ur5,panda,solo12")
+    parser.add_argument("--rounds", type=int, default=200)
     args = parser.parse_args(argv)
     N = args.batch
     rng = np.random.default_rng(0)
-    print(f"{'robot':8} {'n':>3} {'function':8} {'anadyn us':>10} {'kernel us':>10} "
-          f"{'pinocchio us':>13} {'ratio':>6} {'kernel ratio':>13} {'central diff us':>16} "
-          f"{'ratio':>6} {'python us':>10}")
+    print(f"{'robot':8} {'n':>3} {'function':8} {'anadyn us':>10} {'C entry us':>11} "
+          f"{'kernel us':>10} {'pinocchio us':>13} {'ratio':>6} {'kernel ratio':>13} "
+          f"{'central diff us':>16} {'ratio':>6} {'python us':>10}")
     batched = []
     for name in args.robots.split(","):
         found = pair(name)
@@ -107,20 +131,29 @@ def main(argv=None) -> int:
                     d.forward_dynamics(0.0, y[:n], y[n:2 * n], y[2 * n:])
 
         fd = best(central, number=20)
-        for what, ours_call, kernel, third, width, pin_call, py_call in (
-                ("forward", d.forward_derivatives, d.native.forward, tau, n * (2 * n + m),
-                 lambda: pin.computeABADerivatives(model, data, qp, vp, tp),
-                 lambda: python.forward_derivatives(0.0, q, dq, tau)),
-                ("inverse", d.inverse_derivatives, d.native.inverse, ddq, 3 * n * n,
-                 lambda: pin.computeRNEADerivatives(model, data, qp, vp, tp),
-                 lambda: python.inverse_derivatives(0.0, q, dq, ddq))):
-            out = np.empty(width)
-            ours = best(lambda: ours_call(0.0, q, dq, third), number=200)
-            bare = best(lambda: kernel(1, 0.0, q, dq, third, out), number=200)
-            theirs = best(pin_call, number=200)
+        K = BATCH_KERNEL
+        Qk, DQk, TAUk, DDQk = (rng.uniform(-1, 1, (K, k)) for k in (n, n, m, n))
+        out = {"forward": np.empty((K, n * (2 * n + m))), "inverse": np.empty((K, 3 * n * n))}
+        calls = {
+            ("forward", "anadyn"): lambda: d.forward_derivatives(0.0, q, dq, tau),
+            ("forward", "entry"): lambda: d.native.one_forward(0.0, q, dq, tau),
+            ("forward", "kernel"): lambda: d.native.forward(K, 0.0, Qk, DQk, TAUk,
+                                                            out["forward"]),
+            ("forward", "pinocchio"): lambda: pin.computeABADerivatives(model, data, qp, vp, tp),
+            ("inverse", "anadyn"): lambda: d.inverse_derivatives(0.0, q, dq, ddq),
+            ("inverse", "entry"): lambda: d.native.one_inverse(0.0, q, dq, ddq),
+            ("inverse", "kernel"): lambda: d.native.inverse(K, 0.0, Qk, DQk, DDQk,
+                                                            out["inverse"]),
+            ("inverse", "pinocchio"): lambda: pin.computeRNEADerivatives(model, data, qp, vp, tp)}
+        times = in_turns(calls, args.rounds)
+        for what, py_call in (("forward", lambda: python.forward_derivatives(0.0, q, dq, tau)),
+                              ("inverse", lambda: python.inverse_derivatives(0.0, q, dq, ddq))):
+            ours, entry, theirs = (times[what, k] for k in ("anadyn", "entry", "pinocchio"))
+            bare = times[what, "kernel"] / K
             slow = best(py_call, repeat=3)
-            print(f"{name:8} {n:3d} {what:8} {ours * 1e6:10.2f} {bare * 1e6:10.2f} "
-                  f"{theirs * 1e6:13.2f} {ours / theirs:6.2f} {bare / theirs:13.2f} "
+            print(f"{name:8} {n:3d} {what:8} {ours * 1e6:10.2f} {entry * 1e6:11.2f} "
+                  f"{bare * 1e6:10.2f} {theirs * 1e6:13.2f} {ours / theirs:6.2f} "
+                  f"{bare / theirs:13.2f} "
                   + (f"{fd * 1e6:16.1f} {ours / fd:6.3f}" if what == "forward" else
                      f"{'':16} {'':6}") + f" {slow * 1e6:10.0f}")
 

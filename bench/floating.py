@@ -4,22 +4,28 @@
 
 Robots: example-robot-data's Solo12 (18 DOF) and G1 (29 joints, 35 DOF), imported
 with ``--floating-base``; Pinocchio reads the same URDFs with a
-``JointModelFreeFlyer`` root.  Three figures per robot, each a ratio anadyn /
+``JointModelFreeFlyer`` root.  Figures per robot, each a ratio anadyn /
 Pinocchio measured in the same run (CPU time, user + system, of the process and
-the children it waits for):
+the children it waits for; wall time):
 
 - per call: the state derivative x' = [dq, du] at N random states, one Python
   call each: anadyn's ``NumericModel.rhs`` (native C) against what a Pinocchio
   user writes, ``pin.aba`` plus the free-flyer's position and quaternion rates
   (dp = R v, dq_quat = 1/2 q (x) (0, w)) in NumPy;
-- cold: ``anadyn simulate URDF --floating-base --t-end 1 --no-plot`` in a new
-  process with a new derivation cache (its background build's CPU, reported by
-  the next run, added), against ``bench/pinocchio_fall.py``, which imports
-  Pinocchio and SciPy, loads the URDF, integrates the same free fall for 1 s
-  with odeint (LSODA) at anadyn's tolerances (1e-10, 1e-12) calling ABA, and
-  writes the CSV;
-- warm: the same anadyn command once the cache is filled (best of K), against
-  the same script (best of K).
+- first: ``anadyn simulate URDF --floating-base --t-end 1 --no-plot`` in a new
+  process with a new derivation cache in which what an installation does once is
+  done (the generic kernel built, SciPy's odeint self-check recorded:
+  ``bench/cold.py``'s ``install``), against ``bench/pinocchio_fall.py``, which imports Pinocchio and
+  SciPy, loads the URDF, integrates the same free fall for 1 s with odeint
+  (LSODA) at anadyn's tolerances (1e-10, 1e-12) calling ABA, and writes the CSV;
+- second: the same command straight after it (the robot's own code may still be
+  building in the background);
+- warm: the same command once that build has ended (best of K), against the
+  same script (best of K);
+- the background build that the first run forked (the robot's own code,
+  generated and compiled at the lowest priority, once per robot): its CPU and
+  wall seconds as the next run reported them, and the first run's CPU with it
+  (first + build) as a ratio.
 
 The free fall starts at rest at the identity pose: both integrate the same
 equations, and the bench checks that the two end states agree.
@@ -27,7 +33,6 @@ equations, and the bench checks that the two end states agree.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import tempfile
@@ -41,7 +46,7 @@ sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
 import pinocchio_fall  # noqa: E402  (bench/, beside this file)
-from cold import example_robot, timed  # noqa: E402
+from cold import anadyn_runs, example_robot, install, timed  # noqa: E402
 
 ROBOTS = {"solo12": "solo_description/robots/solo12.urdf",
           "g1": "g1_description/urdf/g1_29dof_rev_1_0.urdf"}
@@ -92,36 +97,39 @@ def main() -> None:
     import pinocchio as pin
 
     work = Path(tempfile.mkdtemp(prefix="anadyn-floating-"))
+    base_env = {k: v for k, v in os.environ.items()
+                if k not in ("ANADYN_NATIVE", "ANADYN_GENERIC")}
+    installed = install(work)
     os.environ["ANADYN_CACHE_DIR"] = str(work / "cache-inprocess")       # per_call's build
     script = HERE / "pinocchio_fall.py"
-    print("| robot | DOF | per call anadyn / Pinocchio | cold CPU | cold wall | warm CPU "
-          "| warm wall | end states agree |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| robot | DOF | per call anadyn / Pinocchio | first: wall, CPU | second: wall, CPU "
+          "| warm: wall, CPU | background build CPU / wall s | first + build CPU "
+          "| end states agree |")
+    print("|---|---|---|---|---|---|---|---|---|", flush=True)
     for name, relative in ROBOTS.items():
         urdf = example_robot(relative)
         ours, theirs = per_call(urdf, args.calls)
         cache = work / f"cache-{name}"
-        env = {**os.environ, "ANADYN_CACHE_DIR": str(cache), "ANADYN_PROGRESS": "off"}
         command = [sys.executable, "-m", "anadyn_cli", "simulate", str(urdf),
-                   "--floating-base", "--inertia", "accept", "--t-end", "1", "--no-plot",
-                   "--out", str(work / name)]
-        cold_wall, cold_cpu = timed(command, env)
-        warm = [timed(command, env) for _ in range(args.repeat)]
-        report = json.loads((work / name / "simulate.json").read_text())
-        background = report.get("timings", {}).get("background_build_cpu", 0.0) or 0.0
+                   "--floating-base", "--inertia", "accept", "--t-end", "1", "--no-plot"]
+        row = anadyn_runs(command, cache, installed, {**base_env, "ANADYN_PROGRESS": "off"},
+                          args.repeat)
         pin_runs = [timed([sys.executable, str(script), str(urdf), str(work / f"{name}.csv")],
-                          dict(os.environ)) for _ in range(args.repeat)]
-        pin_wall = min(r[0] for r in pin_runs)
-        pin_cpu = min(r[1] for r in pin_runs)
-        ours_end = np.genfromtxt(work / name / "simulate.csv", delimiter=",", names=True)
+                          base_env) for _ in range(args.repeat)]
+        pw, pc = min(r[0] for r in pin_runs), min(r[1] for r in pin_runs)
+        ours_end = np.genfromtxt(cache / "out" / "simulate.csv", delimiter=",", names=True)
         theirs_end = np.loadtxt(work / f"{name}.csv", delimiter=",")[-1]
         base = [c for c in ours_end.dtype.names if c.endswith("_z")][0]
         agree = abs(ours_end[base][-1] - theirs_end[3]) < 1e-8
         nv = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer()).nv
+        cells = [f"{row[k][0] / pw:.2f}x, {row[k][1] / pc:.2f}x"
+                 for k in ("first", "second", "warm")]
+        bg = row["background"]
+        total = "-" if bg is None else f"{(row['first'][1] + bg[0]) / pc:.2f}x"
         print(f"| {name} | {nv} | {ours / theirs:.2f} ({ours * 1e6:.1f} / {theirs * 1e6:.1f} "
-              f"us) | {(cold_cpu + background) / pin_cpu:.2f} | {cold_wall / pin_wall:.2f} "
-              f"| {min(w[1] for w in warm) / pin_cpu:.2f} | {min(w[0] for w in warm) / pin_wall:.2f} "
-              f"| {'yes' if agree else 'NO'} |")
+              f"us) | {' | '.join(cells)} | "
+              f"{'-' if bg is None else f'{bg[0]:.1f} / {bg[1]:.1f}'} | {total} "
+              f"| {'yes' if agree else 'NO'} |", flush=True)
 
 
 if __name__ == "__main__":

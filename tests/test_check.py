@@ -113,7 +113,7 @@ def test_the_balance_catches_a_wrong_actuator_power(monkeypatch):
         tau = np.asarray(compiled.efforts(t, x[:n], x[n:]), dtype=float).reshape(-1)
         return float(x[n:] @ tau)
 
-    monkeypatch.setattr(stability, "actuator_power", wrong)
+    monkeypatch.setattr(stability.path, "actuator_power", wrong)
     broken = stability.check(compiled, t_end=3.0)
     assert not broken.passed and broken.energy_error > 1e-3
 

@@ -129,7 +129,7 @@ def test_peak_against_a_limit():
         robot=SimpleNamespace(actuators=[SimpleNamespace(name="T1", unit="N*m",
                                                          effort_limit=20.0)]),
         efforts=np.array([[1.0], [-25.0], [3.0]]), t=np.array([0.0, 0.5, 1.0]),
-        rates=np.array([[0.0], [2.0], [-3.0]]))
+        rates=np.array([[0.0], [2.0], [-3.0]]), wrench=None)
     table = inverse.sizing_table(result).splitlines()
     assert table[1].split() == ["T1", "-25", "N·m", "0.5", "17.7482", "N·m", "3", "rad/s",
                                 "50", "125%", "of", "20", "EXCEEDED"]

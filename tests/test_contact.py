@@ -239,7 +239,6 @@ def test_simulate_writes_contact_columns_and_events(tmp_path):
     (["equations"], "symbolic equations (derive, equations)"),
     (["compare"], "symbolic equations (compare)"),
     (["simulate", "--formulation", "kane"], "closed forms"),
-    (["inverse"], "inverse dynamics"),
     (["linearize"], "linearizations (linearize)"),
 ])
 def test_what_does_not_know_contacts_refuses_them(tmp_path, capsys, argv, what):

@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 
 from anadyn_cli.cli import main
 from anadyn_cli.numeric.frames import frames
-from anadyn_cli.output import drawing
+from anadyn_cli.output import contact_drawing, drawing
 from anadyn_cli.services import show as service
 
 ROBOTS = Path(__file__).resolve().parent.parent / "robots"
@@ -53,7 +53,7 @@ def test_show_json_places_the_contact_sphere_and_its_gap(tmp_path):
 def test_forces_are_rebuilt_from_the_columns_in_world_axes():
     fk = frames(BALL)
     poses = fk(np.array([[0.2, 0.05, 0.0], [0.2, 0.08, 0.0]]))
-    forces = drawing.contact_forces(fk.skeleton, poses, {
+    forces = contact_drawing.contact_forces(fk.skeleton, poses, {
         "floor_fn": np.array([2.0, 0.0]), "floor_ft1": np.array([1.0, 0.0]),
         "floor_ft2": np.array([-0.5, 0.0])})
     assert forces[0, 0] == pytest.approx([1.0, -0.5, 2.0])      # ft1 x + ft2 y + fn z
@@ -80,7 +80,7 @@ def test_a_pair_pushes_along_the_line_of_centres_at_the_middle_of_the_overlap(tm
     depth = R + 0.05 - distance
     assert knock.force_point(pose) == pytest.approx(
         np.array([0.18, 0.0, 0.24]) - (R - depth / 2) * n)
-    forces = drawing.contact_forces(fk.skeleton, pose, {"knock_fn": 3.0, "knock_ft1": 7.0})
+    forces = contact_drawing.contact_forces(fk.skeleton, pose, {"knock_fn": 3.0, "knock_ft1": 7.0})
     assert forces[1] == pytest.approx(3.0 * n)           # the pair's ft1 is a magnitude
 
 
@@ -96,9 +96,9 @@ def test_the_arrow_of_a_resting_ball_is_its_weight_straight_up(tmp_path):
     movie_frame = drawing.Frame.around(fk(q[[-1]]), fk.skeleton, float(M * G))
     artist = drawing.RobotArtist(Figure().add_subplot(), drawing.View("front", (0, 2)),
                                  fk.skeleton, movie_frame)
-    forces = drawing.contact_forces(fk.skeleton, fk(q[-1]), {k: v[-1] for k, v in columns.items()})
+    forces = contact_drawing.contact_forces(fk.skeleton, fk(q[-1]), {k: v[-1] for k, v in columns.items()})
     artist.update(fk(q[-1]), forces)
-    arrow = np.array(artist.forces.get_data()).T[:2]
+    arrow = np.array(artist.contacts.forces.get_data()).T[:2]
     start = np.array([q[-1, 0], q[-1, 1] - R])           # (x, z) of the lowest point
     assert arrow[0] == pytest.approx(start, abs=1e-9)
     assert arrow[1] == pytest.approx(start + [0.0, movie_frame.newton * M * G], rel=1e-4)

@@ -200,6 +200,8 @@ def run_page(page: Path, folder: Path, monkeypatch, slow: bool) -> int:
             assert printed == block.text, f"{block.where()}: the block before printed\n{printed}"
         if block.language == "text" or "norun" in block.marks \
                 or not (slow or runs_in_default(block)):
+            if block.language == "text" and "file" in block.marks:
+                run_block(block, folder)                 # writes the file, runs nothing
             printed = None
             continue
         printed = run_block(block, folder)

@@ -435,6 +435,18 @@ def test_python_rhs_integrates_like_anadyn(tmp_path):
 
 
 # -- MATLAB / Octave ----------------------------------------------------------------------
+def octave_numbers(folder: Path, lines: list[str]) -> list[list[float]]:
+    """Run ``lines`` as one Octave script in ``folder``; the numbers of each output line
+    that starts with a count (``printf('%d', numel(v)); printf(' %.17g', v(:))``)."""
+    script = folder / "run_all.m"
+    script.write_text("\n".join(lines) + "\n")
+    done = subprocess.run([OCTAVE, "--no-gui", "--no-window-system", "--quiet", "--norc",
+                           str(script)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    return [list(map(float, line.split()))[1:] for line in done.stdout.splitlines()
+            if line.strip() and re.match(r"^\d", line)]
+
+
 def octave_values(folder: Path, name: str, reference: Reference, symbolic: bool) -> list[dict]:
     """Run every exported function in one Octave session; read back %.17g numbers."""
     n, m = reference.n, reference.m
@@ -457,13 +469,7 @@ def octave_values(folder: Path, name: str, reference: Reference, symbolic: bool)
                   "  v = out{k}';",          # row-major
                   "  printf('%d', numel(v)); printf(' %.17g', v(:)); printf('\\n');",
                   "end"]
-    script = folder / "run_all.m"
-    script.write_text("\n".join(lines) + "\n")
-    done = subprocess.run([OCTAVE, "--no-gui", "--no-window-system", "--quiet", "--norc",
-                           str(script)], capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stderr
-    numbers = [list(map(float, line.split()))[1:] for line in done.stdout.splitlines()
-               if line.strip() and re.match(r"^\d", line)]
+    numbers = octave_numbers(folder, lines)
     keys = ["M", "F", "B", "efforts", "rhs", "jacobian", "ddq", "inverse"]
     shapes = {"M": (n, n), "B": (n, m), "jacobian": (2 * n, 2 * n)}
     results = []

@@ -481,8 +481,8 @@ def test_energy_balance_catches_a_wrong_dissipated_power(tmp_path, capsys, monke
                                                          computation):
     from anadyn_cli.services import check as check_service
 
-    original = check_service.external_powers
-    monkeypatch.setattr(check_service, "external_powers",
+    original = check_service.path.external_powers
+    monkeypatch.setattr(check_service.path, "external_powers",
                         lambda model, t, x: original(model, t, x) * np.array([1.0, 0.0]))
     code, figures, _ = run_check(capsys, tmp_path, ROBOTS / "rrt_friction.yaml",
                                  "--t-end", "5", *PATHS[computation])

@@ -268,9 +268,9 @@ def test_round_trip_catches_slightly_wrong_efforts(monkeypatch):
     """Efforts off by one part in a million make the motion miss by more than 1e-6."""
     result = inverse(numeric_model(robot("rr")), roundtrip=True)
     assert result.roundtrip.passed
-    exact = InverseDynamics.effort_at
-    monkeypatch.setattr(InverseDynamics, "effort_at",
-                        lambda self, t: exact(self, t) * (1 + 1e-6))
+    exact = InverseDynamics.applied_at
+    monkeypatch.setattr(InverseDynamics, "applied_at",
+                        lambda self, t: (exact(self, t)[0] * (1 + 1e-6), exact(self, t)[1]))
     wrong = inverse(numeric_model(robot("rr")), roundtrip=True)
     assert not wrong.roundtrip.passed and wrong.roundtrip.max_error > 1e-6
 

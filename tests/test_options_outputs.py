@@ -298,18 +298,17 @@ def test_export_reports_its_stages(monkeypatch):
 
 
 def _export_cases():
-    """Every open-chain robot of the library without a spherical joint (export refuses
-    closed loops, tested in test_export, and the quaternion state, tested in
-    test_spherical) and every test URDF."""
+    """Every open-chain robot of the library (export refuses closed loops, tested in
+    test_export) but G1 (35 speeds: generating its closed forms did not finish in 25
+    minutes on a loaded 2-core machine, where Solo12's 18 speeds take about 30 s) and
+    every test URDF."""
     import yaml
 
     from anadyn_cli.model import library
-    from anadyn_cli.model.names import quaternion_names
 
     def exported(path):
         data = yaml.safe_load(path.read_text()) if path.suffix == ".yaml" else {}
-        return not ({"loops", "constraints"} & set(data)
-                    or any(quaternion_names(body) for body in data.get("bodies", ())))
+        return not {"loops", "constraints"} & set(data) and path.stem != "g1_free"
 
     urdfs = sorted((ROOT / "tests" / "data" / "urdf").glob("*.urdf"))
     names = sorted(name for name, path in library.entries().items() if exported(path))

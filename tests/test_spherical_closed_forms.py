@@ -13,7 +13,7 @@ against independent sources:
   horizontal axes, from ``linearize`` on the tangent space;
 - the torque-free body on the closed-form evaluator: energy and the angular momentum
   in world axes conserved, the quaternion's drift reported;
-- ``compare`` and ``equations`` on the command line; the exports still refuse.
+- ``compare`` and ``equations`` on the command line (``export``: ``test_export_floating``).
 """
 from __future__ import annotations
 
@@ -259,12 +259,3 @@ def test_equations_print_the_kinematic_differential_equations(capsys):
     assert "wx: " in text and "dwx" in text
     assert "# kinematic differential equations" in text
     assert "dqw = -0.5*qx*wx - 0.5*qy*wy - 0.5*qz*wz" in text
-
-
-@pytest.mark.parametrize("lang", ["c", "python"])
-def test_the_exports_still_refuse_with_one_line(tmp_path, capsys, lang):
-    code = main(["export", str(ROBOTS["spherical_pendulum"]), "--lang", lang, "--out",
-                 str(tmp_path / "x")])
-    err = capsys.readouterr().err
-    assert code == 2 and len(err.strip().splitlines()) == 1 and "spherical joint" in err, err
-    assert not (tmp_path / "x").exists() or not any((tmp_path / "x").iterdir())

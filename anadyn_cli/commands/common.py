@@ -64,7 +64,8 @@ FLAGS = {"output_step": "--dt", "t_end": "--t-end", "rtol": "--rtol", "atol": "-
          "symbolic": "--symbolic", "goal": "--to", "start": "--from", "objective": "--minimize",
          "duration": "--duration", "intervals": "--intervals",
          "method": "--method", "vary": "--vary", "derivatives": "--derivatives",
-         "parameters": "--parameter"}
+         "parameters": "--parameter", "regressor": "--regressor", "contact_gap": "--contact-gap",
+         "contact_resolution": "--contact-resolution"}
 FLAGS.update(holdout="--holdout", period="--period", harmonics="--harmonics", margin="--margin",
              iterations="--iterations")  # identify, excite
 
@@ -202,20 +203,25 @@ LockOpt = typer.Option(None, "--lock", metavar="JOINT=VALUE",
                        help="URDF: hold this joint at VALUE (rad or m; a number or an "
                             "expression such as pi/4): a reduced robot, the joint's child "
                             "folded into the body before it (repeatable).")
+ContactsOpt = typer.Option(False, "--contacts",
+                           help="MJCF: import the sphere, capsule and box geoms that can "
+                                "touch a plane of the world as compliant contacts against it "
+                                "(docs: how-to/mjcf); without it the robot has no contacts.")
 #: parameter -> (type, option) of the URDF reading options (``model.urdf.ReadingOptions``)
 URDF_OPTIONS = {"fix_base": (bool, FixBaseOpt), "floating_base": (bool, FloatingBaseOpt),
-                "inertia": (InertiaPolicy, InertiaOpt), "lock": (Optional[List[str]], LockOpt)}
+                "inertia": (InertiaPolicy, InertiaOpt), "lock": (Optional[List[str]], LockOpt),
+                "contacts": (bool, ContactsOpt)}
 
 
 def reading_options(fix_base: bool, inertia: InertiaPolicy, lock: list[str] | None,
-                    floating_base: bool = False):
-    """The ``urdf.ReadingOptions`` of --fix-base, --inertia, the --lock texts and
-    --floating-base."""
+                    floating_base: bool = False, contacts: bool = False):
+    """The ``urdf.ReadingOptions`` of --fix-base, --inertia, the --lock texts,
+    --floating-base and --contacts."""
     from ..model import urdf
 
     return urdf.ReadingOptions(fix_base, inertia.value,
                                tuple(urdf.parse_lock(text) for text in lock or ()),
-                               floating_base)
+                               floating_base, contacts)
 
 
 def with_urdf_options(command):
@@ -233,10 +239,10 @@ def with_urdf_options(command):
 
     @functools.wraps(command)
     def run(*args, fix_base=False, floating_base=False, inertia=InertiaPolicy.refuse,
-            lock=None, **kwargs):
+            lock=None, contacts=False, **kwargs):
         from ..model import library, urdf
 
-        options = reading_options(fix_base, inertia, lock, floating_base)
+        options = reading_options(fix_base, inertia, lock, floating_base, contacts)
         robots = kwargs.get("robots") or [kwargs.get("robot")]
         if options.flags() and not any(
                 r is not None and library.imports(library.resolve(r)) for r in robots):

@@ -43,6 +43,12 @@ def export(
                                         help="With --derivatives: also differentiate with "
                                              "respect to this parameter or gain of the robot "
                                              "file (repeat for more)."),
+    regressor: bool = typer.Option(False, "--regressor",
+                                   help="c and python: also NAME_regressor.{h,c} or "
+                                        "NAME_regressor.py, the regressor Y(q, dq, ddq) "
+                                        "with M ddq - F = Y pi (n x p, row-major), one "
+                                        "state or a batch, and "
+                                        "NAME_regressor_parameters.csv, pi's order."),
 ) -> None:
     """Standalone files for M(q), F(t, q, dq), B(q), the control laws, the state derivative,
     its analytic Jacobian and the inverse dynamics; or a LaTeX document of the equations;
@@ -55,13 +61,14 @@ def export(
 
     start = time.perf_counter()
     parameters = tuple(parameter or ())
-    service.check_options(lang.value, fragment, symbolic, derivatives, parameters)
+    service.check_options(lang.value, fragment, symbolic, derivatives, parameters, regressor)
     timings: dict = {}
     moment = time.perf_counter()
     model = load_robot(robot)
     timings["load"] = time.perf_counter() - moment
     result = service.export(model, lang.value, formulation.value, symbolic, fragment, timings,
-                            derivatives=derivatives, parameters=parameters)
+                            derivatives=derivatives, parameters=parameters,
+                            regressor=regressor)
     folder = out if out is not None else Path("results") / model.name / "export" / lang.value
     written = service.write(result, folder)
     exported = result.model

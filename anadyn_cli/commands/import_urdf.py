@@ -6,8 +6,8 @@ from typing import List, Optional
 
 import typer
 
-from .common import (FixBaseOpt, FloatingBaseOpt, InertiaOpt, InertiaPolicy, LockOpt,
-                     reading_options)
+from .common import (ContactsOpt, FixBaseOpt, FloatingBaseOpt, InertiaOpt, InertiaPolicy,
+                     LockOpt, reading_options)
 
 
 def import_urdf(
@@ -20,6 +20,7 @@ def import_urdf(
     floating_base: bool = FloatingBaseOpt,
     inertia: InertiaPolicy = InertiaOpt,
     lock: Optional[List[str]] = LockOpt,
+    contacts: bool = ContactsOpt,
 ) -> None:
     """Import a URDF or MJCF (MuJoCo XML) robot as an anadyn robot file (YAML, with
     comments).
@@ -31,7 +32,8 @@ def import_urdf(
     are kept; --lock holds joints at a value (a reduced robot); --floating-base
     frees the root link, which a URDF fixes to the world.  MJCF:
     hinge and slide joints, geom inertias, defaults, armature, springs and
-    motor/position/velocity actuators (docs: how-to/mjcf).  Every command also
+    motor/position/velocity actuators, with --contacts the contact geoms against
+    the world's planes (docs: how-to/mjcf).  Every command also
     takes the .urdf or .xml file directly, with these options.
     """
     from ..model import library
@@ -44,12 +46,13 @@ def import_urdf(
     if not library.imports(path):
         raise ModelError("not a URDF or MJCF file (expected a .urdf or .xml file name)",
                          source=shown)
-    options = reading_options(fix_base, inertia, lock, floating_base)
+    options = reading_options(fix_base, inertia, lock, floating_base, contacts)
     imported = library.import_robot(path, options)
     robot = robot_from_text(imported.text, f"{shown} (imported)")   # what is written loads
     for warning in imported.warnings:
         typer.echo(f"anadyn: warning: {warning}", err=True)
-    summary = (f"{robot.name}: {len(robot.coordinates)} coordinates, {len(robot.speeds)} "
+    freedom = len(robot.speeds) - (robot.constraints.count if robot.constraints else 0)
+    summary = (f"{robot.name}: {len(robot.coordinates)} coordinates, {freedom} "
                f"degrees of freedom, {len(robot.bodies)} bodies, {len(robot.actuators)} "
                "actuators")
     if output is None:

@@ -40,10 +40,18 @@ def inverse(
     motion: Path = typer.Option(
         None, "--motion", help="Measured motion instead of the file's trajectory: a CSV "
                                "with the columns of inverse.csv (t, each coordinate, "
-                               "optionally d<q> and dd<q>; other columns ignored).",
+                               "optionally d<q> and dd<q> (a spherical joint's speeds "
+                               "wx.. and dwx..); other columns ignored).",
         dir_okay=False),
     smoothing_window: int = SmoothingWindowOpt,
     smoothing_order: int = SmoothingOrderOpt,
+    contact_gap: float = typer.Option(
+        1e-6, "--contact-gap", help="A robot in contact: the largest gap (m) at which a "
+                                    "contact counts as active and may push."),
+    contact_resolution: str = typer.Option(
+        "least-norm", "--contact-resolution",
+        help="A robot in contact: how redundant contact forces are chosen: least-norm, or "
+             "cone (the least-norm ones inside the friction cones where those leave them)."),
 ) -> None:
     """Efforts tau = B^-1 (M ddq - F) along the file's trajectory, or along a measured
     motion (--motion data.csv): inverse.csv, inverse.png.
@@ -67,17 +75,22 @@ def inverse(
         raise ModelError("--smoothing-window and --smoothing-order apply to --motion data")
     how = measured.Differentiator.given(smoothing_window, smoothing_order)
     model = prepared_model(robot, formulation, evaluator, cache, timings)
-    samples = None if motion is None else measured.read_motion(motion, model.coordinates, how)
+    samples = None if motion is None else measured.read_motion(
+        motion, model.coordinates, how, speeds=model.speeds, quaternions=model.quaternions)
     if samples is None and robot.suffix.lower() == ".urdf":
         raise ModelError("a URDF has no trajectory: give the motion as measured data "
                          "(--motion data.csv with columns t, "
                          f"{', '.join(model.coordinates[:3])}{', ...' * (model.n > 3)}) or "
                          "write a robot file with 'anadyn import' and add a trajectory: "
                          "section", source=str(robot))
+    from ..numeric.contact_inverse import friction_coefficients
+    friction = friction_coefficients(model, robot)        # a compliant law's mu
     with progress.task(f"efforts of {model.name}"
                        + (" and the round trip" if roundtrip else "")):
         result = service.inverse(model, step=dt, roundtrip=roundtrip, tolerance=roundtrip_tol,
-                                 segment=roundtrip_segment, timings=timings, measured=samples)
+                                 segment=roundtrip_segment, timings=timings, measured=samples,
+                                 contact_gap=contact_gap, friction=friction,
+                                 contact_resolution=contact_resolution)
     with progress.task("writing the results"), styled(figure_style(size, title, font_size)):
         written = service.write(result, out_dir(out, model.name), plot=plot,
                                 plot_format=plot_format.value, rates=rates)
@@ -95,6 +108,10 @@ def inverse(
             f"{r.column} up to {abs(result.constraints.multipliers[:, k]).max():.4g}"
             f"{' ' + r.unit if r.unit else ''}" for k, r in enumerate(result.constraints.rows))
             + (f"; {result.note}" if result.note else ""))
+    if result.contact is not None:                # robots in contact: the forces needed
+        typer.echo(f"contact forces ({contact_resolution}): " + ", ".join(
+            f"{name}_fn up to {result.contact.forces[:, c, 0].max():.4g} N"
+            for c, name in enumerate(model.contact_names)))
     typer.echo(time_line(result.timings, start))
     typer.echo("wrote " + ", ".join(str(p) for p in written))
     echo_limits(result.limits, "inverse.json")

@@ -1,9 +1,13 @@
 """Contact between bodies and ground planes (the robot file's ``contacts`` section).
 
-The one contact model implemented is the *compliant* one: each contact is a sphere
+Two contact models (``Contacts.model``).  In both each contact is a sphere
 (``radius`` > 0) or a point (radius 0) fixed on a body, pressed against a ground
 plane n . x = height (n a unit normal in world axes, the solid on the side -n), or
-against a sphere on another body (``Partner``).
+against a sphere on another body (``Partner``).  The file's capsules and boxes are
+made of these (``loader.contacts``): against a ground, a capsule is its two end
+spheres and a box its eight corners as points (the deepest point of either lies
+among them); against a sphere, one contact whose centre is the point of a segment
+(a capsule) or of a solid box nearest the partner's centre (``Contact.spans``).
 With the penetration d = radius - (n . c - height) (c the sphere's centre in world
 axes) and its rate d', the ground pushes at the sphere's lowest point c - radius n
 with
@@ -12,8 +16,9 @@ with
     friction: f_t = -mu f_n tanh(|v_t| / v_s) v_t / |v_t|      (regularized Coulomb)
 
 v_t the velocity of the body's material point at the contact, less its normal part.
-The rigid model (impacts with restitution, unilateral constraints) is not
-implemented; the loader refuses it.
+That is the *compliant* model.  The *rigid* one (``numeric.impacts``) makes each
+contact a unilateral constraint with impacts (Newton's restitution, Coulomb friction
+with one coefficient); of the law it uses only ``friction`` and ``restitution``.
 """
 from __future__ import annotations
 
@@ -25,8 +30,8 @@ if TYPE_CHECKING:               # SymPy-valued, but not imported: a cached run n
 
     Vector = tuple[sp.Expr, sp.Expr, sp.Expr]
 
-#: the contact models; only the compliant one runs
-CONTACT_MODELS = ("compliant",)
+#: the contact models (module docstring)
+CONTACT_MODELS = ("compliant", "rigid")
 #: defaults of the compliant law: Hertz exponent 3/2, friction smoothed over 0.01 m/s
 #: (the joints' friction_velocity default)
 DEFAULT_EXPONENT = 1.5
@@ -45,12 +50,14 @@ class ContactLaw:
     """Hunt-Crossley normal law f_n = max(0, d)^exponent max(0, stiffness + damping d')
     (stiffness N/m^exponent, damping s/m: c_d = 1.5 alpha k for Hunt and Crossley's
     alpha) and regularized Coulomb friction mu f_n tanh(|v_t| / friction_velocity)
-    (one coefficient: static and kinetic equal)."""
+    (one coefficient: static and kinetic equal); ``restitution`` e in [0, 1], the rigid
+    model's Newton coefficient (normal speed after an impact = -e times before)."""
     stiffness: sp.Expr
     damping: sp.Expr
     exponent: sp.Expr
     friction: sp.Expr
     friction_velocity: sp.Expr
+    restitution: sp.Expr
 
 
 @dataclass(frozen=True)
@@ -67,7 +74,13 @@ class Contact:
     ``body``, against ``ground`` or, when given, the sphere ``partner`` on another
     body (then ``ground`` is None), under ``law``.  Between two spheres,
     d = radius + partner radius - |c - c_partner|, n from the partner's centre to this
-    one's, and the force acts at the middle of the overlap on both bodies."""
+    one's, and the force acts at the middle of the overlap on both bodies.
+
+    ``spans`` (against a partner only) are vectors e_k (body axes, m, mutually
+    orthogonal) that sweep the centre over point + sum s_k e_k, |s_k| <= 1: one span
+    (half a capsule's segment) or three (a box's half-extents along its axes); the
+    centre used is the swept point nearest the partner's centre, each s_k the clamped
+    projection (e_k . (c_partner - point)) / |e_k|^2."""
     name: str
     body: str
     point: Vector
@@ -75,6 +88,7 @@ class Contact:
     ground: Ground | None
     law: ContactLaw
     partner: Partner | None = None
+    spans: tuple[Vector, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -86,14 +86,20 @@ def import_robot(path: Path, options=None):
     """``urdf.import_file`` or ``mjcf.import_file`` of ``path`` with the reading
     options (--fix-base, --floating-base, --inertia, --lock; default: the current
     ``urdf.READING``)."""
-    from . import mjcf, urdf
+    from . import urdf
 
     options = urdf.READING.get() if options is None else options
     if path.suffix.lower() == ".urdf":
+        if options.contacts:
+            from ..errors import ModelError, display_name
+            raise ModelError("--contacts: imports an MJCF model's contact geoms; anadyn reads "
+                             "no contacts from a URDF", source=display_name(path))
         return urdf.import_file(path, options.fix_base, options.inertia, options.lock,
                                 options.floating_base)
+    from . import mjcf                            # (read only for an MJCF file)
+
     return mjcf.import_file(path, options.fix_base, options.inertia, options.lock,
-                            options.floating_base)
+                            options.floating_base, options.contacts)
 
 
 def shipped_yaml() -> list[Path]:
@@ -106,9 +112,11 @@ def _is_robot(path: Path) -> bool:
     """URDF and MJCF files are robots; a YAML file is one when it has ``bodies`` (batch
     files have ``jobs``)."""
     if imports(path):
+        if path.suffix.lower() == ".urdf":
+            return True
         from .mjcf import is_mjcf
 
-        return path.suffix.lower() == ".urdf" or is_mjcf(path)
+        return is_mjcf(path)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError):

@@ -106,7 +106,9 @@ def _format(x) -> str:
     keep a '.' before an exponent, as yaml's own dumper writes them); text as is."""
     if isinstance(x, (np.floating, np.integer)):
         x = x.item()
-    if isinstance(x, bool) or x is None:
+    if isinstance(x, bool):                  # a flag, e.g. ``dependent: true``
+        return "true" if x else "false"
+    if x is None:
         raise TypeError(x)
     if isinstance(x, int):
         return str(x)
@@ -195,7 +197,12 @@ def render(data: dict, header: list[str], body_comments: list[list[str]]) -> str
                     lead = "    "
         elif isinstance(value, dict):
             out.append(f"{_key(key)}:")
-            out.extend(f"  {_key(k)}: {_flow(v)}" for k, v in value.items())
+            for k, v in value.items():
+                if isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+                    out.append(f"  {_key(k)}:")                  # e.g. contacts' geometry
+                    out.extend(f"    - {_flow(x)}" for x in v)
+                else:
+                    out.append(f"  {_key(k)}: {_flow(v)}")
         else:
             out.append(f"{_key(key)}: {_flow(value)}")
     return "\n".join(out) + "\n"

@@ -25,10 +25,22 @@ world frames (R_i = R_p E_i^T, p_i = p_p + R_p r_i): n = (c1 - c2) / |c1 - c2|,
 d = rho1 + rho2 - |c1 - c2|, the point c1 - (rho1 - d/2) n, v the relative velocity
 of the two material points there; the same law, F on body 1 and -F on body 2
 (reported: ft1 = |f_t|, ft2 = 0, their normal turning).
+
+For the rigid model (``ContactPlan.rigid``) no force is traced: the contact gives only
+its kinematics, d and the material velocity at the contact point along n (vn = -d',
+the separating speed) and, against a ground, along t1 and t2 (vt1, vt2; a pair: 0),
+from which ``numeric.impacts`` takes the contact Jacobian (they are linear in the
+speeds).
+
+A capsule or a box against a sphere (``spans`` e_k, body axes) uses for c1 the point
+c1 + sum s_k R1 e_k nearest c2, s_k = clamp((R1 e_k) . (c2 - c1) / |e_k|^2, -1, 1)
+(``_nearest``; the spans are orthogonal, so the clamps are independent): then n is
+normal to the segment or the box face, and the law holds while c2 stays outside the
+box.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import sympy as sp
 
@@ -56,6 +68,9 @@ class ContactPlan:
     partner: int | None = None           # the other sphere's body (None: the ground)
     partner_centre: list[float] | None = None
     partner_radius: float = 0.0
+    spans: list[list[float]] = field(default_factory=list)   # body axes (``_nearest``)
+    restitution: float = 0.0             # the rigid model's (``numeric.impacts``)
+    rigid: bool = False                  # rigid: no force traced, only the kinematics
 
 
 def tangents(normal: list[float]) -> list[list[float]]:
@@ -87,7 +102,8 @@ def contact_plans(robot, number, index: dict[str, int]) -> list[ContactPlan]:
             number(law.stiffness), number(law.damping), number(law.exponent),
             number(law.friction), number(law.friction_velocity),
             *((index[pair.body], [number(x) for x in pair.point], number(pair.radius))
-              if pair else ())))
+              if pair else ()), spans=[[number(x) for x in e] for e in c.spans],
+            restitution=number(law.restitution), rigid=robot.contacts.model == "rigid"))
     return out
 
 
@@ -118,6 +134,9 @@ def _law(P: Program, c: ContactPlan, depth: Ex, rate: Ex, slip: list) -> dict:
     velocity ``slip`` (any axes): ``fn``, the friction ``ft`` (slip's axes), the spring's
     ``energy`` and the ``dissipated`` power."""
     from .recursive.spatial import dot, emitv, scale
+    if c.rigid:                                    # the forces are numeric.impacts'
+        return {"fn": Ex(), "ft": [Ex(), Ex(), Ex()], "depth": depth, "dissipated": Ex(),
+                "energy": Ex()}
     d, dd = _symbol(P, depth), _symbol(P, rate)
     k, p = c.stiffness, sp.Float(c.exponent)
     pressed = sp.Max(0, d) ** p
@@ -150,8 +169,9 @@ def _ground(T, c: ContactPlan, heights: list) -> dict:
     out = _law(P, c, depth, rate, emitv(P, add(v, scale(n, rate))))
     force = emitv(P, add(scale(n, out["fn"]), out["ft"]))
     t1, t2 = (T.to_body(const_vec(t), c.body) for t in c.tangents)
-    out.update(wrenches=[(c.body, force, emitv(P, cross(point, force)))],
-               ft1=P.emit(dot(out["ft"], t1)), ft2=P.emit(dot(out["ft"], t2)))
+    out.update(wrenches=[] if c.rigid else [(c.body, force, emitv(P, cross(point, force)))],
+               ft1=P.emit(dot(out["ft"], t1)), ft2=P.emit(dot(out["ft"], t2)),
+               vn=P.emit(rate * -1.0), vt1=P.emit(dot(v, t1)), vt2=P.emit(dot(v, t2)))
     return out
 
 
@@ -184,6 +204,8 @@ def _pair(T, c: ContactPlan, world: list) -> dict:
     for body, centre in ((c.body, c.centre), (c.partner, c.partner_centre)):
         R, p, V, W = world[body]
         ends.append((R, p, V, W, emitv(P, add(p, matvec(R, const_vec(centre))))))
+    if c.spans:
+        ends[0] = (*ends[0][:4], _nearest(P, c, ends[0][0], ends[0][4], ends[1][4]))
     apart = emitv(P, sub(ends[0][4], ends[1][4]))
     distance = P.call("sqrt", P.emit(dot(apart, apart) + 1e-24))
     n = emitv(P, scale(apart, P.call("recip", distance)))
@@ -199,15 +221,29 @@ def _pair(T, c: ContactPlan, world: list) -> dict:
     for (R, _, _, _, _), arm, body, sign in zip(ends, arms, (c.body, c.partner), (1.0, -1.0)):
         F = emitv(P, scale(matTvec(R, force), sign))
         wrenches.append((body, F, emitv(P, cross(emitv(P, matTvec(R, arm)), F))))
-    out.update(wrenches=wrenches, ft1=P.call("sqrt", P.emit(dot(out["ft"], out["ft"]))),
-               ft2=Ex())
+    out.update(wrenches=[] if c.rigid else wrenches,
+               ft1=P.call("sqrt", P.emit(dot(out["ft"], out["ft"]))), ft2=Ex(),
+               vn=P.emit(rate * -1.0), vt1=Ex(), vt2=Ex())    # a pair: no tangents
     return out
+
+
+def _nearest(P, c: ContactPlan, R, centre: list, target: list) -> list:
+    """The point centre + sum s_k R e_k (|s_k| <= 1, e_k ``c.spans``) nearest ``target``,
+    world axes."""
+    from .recursive.spatial import add, const_vec, dot, emitv, matvec, scale, sub
+    offset, point = emitv(P, sub(target, centre)), centre
+    for span in c.spans:
+        e = emitv(P, matvec(R, const_vec(span)))
+        share = _symbol(P, P.emit(dot(e, offset) * (1.0 / sum(x * x for x in span))))
+        point = add(point, scale(e, P.sympy(sp.Min(1, sp.Max(-1, share)))))
+    return emitv(P, point)
 
 
 def traced(T) -> list[dict]:
     """Per contact of ``T.plan``: its ``wrenches`` (body, force, moment about the body's
     origin, body axes: one per body it touches) and the reported quantities ``fn``,
-    ``ft1``, ``ft2``, ``depth``, ``energy``, ``dissipated`` (module docstring)."""
+    ``ft1``, ``ft2``, ``depth``, ``energy``, ``dissipated``, ``vn``, ``vt1``, ``vt2``
+    (module docstring)."""
     if not T.plan.contacts:                        # nothing traced: other robots' code
         return []                                  # stays as it was
     heights: dict[tuple, list] = {}

@@ -1,15 +1,15 @@
 """A run's contacts: simulate.csv's contact columns and simulate.json's contact events
-(NumPy only: a cached robot runs without SymPy).  The values come from the generated
-``contacts`` function (``numeric.contact``), per contact and row: normal force, friction
-along the ground's tangents t1 and t2 (N), penetration (m; < 0: the gap), spring energy
-(J), dissipated power (W)."""
+(NumPy only: a cached robot runs without SymPy).  The values, per contact and row:
+normal force, friction along the ground's tangents t1 and t2 (N), penetration (m;
+< 0: the gap), spring energy (J), dissipated power (W), the contact point's velocity
+along n, t1, t2 (m/s); from the generated ``contacts`` function (``numeric.contact``)
+for the compliant model, from the rigid model's multipliers (``numeric.impacts``),
+whose events the integrator located, for the rigid one."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
-
-from ..model.contacts import CONTACT_MODELS
 
 #: the columns of simulate.csv per contact (``<contact>_<column>``): the first four values
 CONTACT_COLUMNS = ("fn", "ft1", "ft2", "depth")
@@ -17,11 +17,15 @@ CONTACT_COLUMNS = ("fn", "ft1", "ft2", "depth")
 
 @dataclass
 class ContactRun:
-    """The contacts over a run's rows: ``values`` (contacts, 6, N) as ``NumericModel.contacts``
-    gives them at the times ``t``."""
+    """The contacts over a run's rows: ``values`` (contacts, 9, N) as ``NumericModel.contacts``
+    gives them at the times ``t``; under the ``model`` "rigid", ``located``: the events
+    the integrator located (``impacts.Event.summary``)."""
     names: tuple[str, ...]
     t: np.ndarray
     values: np.ndarray
+    model: str = "compliant"
+    located: list[dict] | None = None
+    balance: float | None = None     # rigid: the energy balance's largest relative residual
 
     def columns(self) -> tuple[list[str], list[np.ndarray]]:
         """simulate.csv's columns after the contract: per contact ``<name>_<column>``
@@ -47,10 +51,15 @@ class ContactRun:
 
     def summary(self) -> dict:
         """simulate.json's ``contact``: the model, the events, the largest penetration and
-        normal force per contact."""
-        return {"model": CONTACT_MODELS[0],
-                "events_from": "output rows (penetration crossing 0, linear in between)",
-                "events": self.events(),
+        normal force per contact (rigid: the energy the impacts took too)."""
+        located = self.located is not None
+        return {"model": self.model,
+                "events_from": ("located by the integrator (rigid model)" if located else
+                                "output rows (penetration crossing 0, linear in between)"),
+                "events": self.located if located else self.events(),
+                **({"impact_losses": sum(e["energy_lost"] for e in self.located)}
+                   if located else {}),
+                **({} if self.balance is None else {"energy_balance": self.balance}),
                 "max_penetration": {n: float(max(self.values[c, 3].max(initial=0.0), 0.0))
                                     for c, n in enumerate(self.names)},
                 "max_normal_force": {n: float(self.values[c, 0].max(initial=0.0))

@@ -30,9 +30,12 @@ is d(out_i)/d(in_j).
 
 d(ddq)/dx = M^-1 K with K = -dID/dx at fixed ddq (forward-mode differentiation
 of the traced recursive Newton-Euler algorithm), d(ddq)/dp = -M^-1 dID/dp.  Native:
-the C extension of ``recursive.derivatives.c_source`` (a dense Cholesky solve, a
-loop over the states in C), compiled on first use through ``native.build`` and
-cached like the dynamics' library; without a compiler (or ``ANADYN_NATIVE=0``, or
+the C extension of ``recursive.derivatives.c_source`` (a Cholesky solve over M's
+structural nonzeros, a loop over the states in C), compiled on first use through
+``native.build`` and cached like the dynamics' library; one state given as
+float64 vectors is one call of its ``one_*`` functions (the checks and the result
+arrays in C), anything else is converted and checked here first.  The results are
+new arrays either way.  Without a compiler (or ``ANADYN_NATIVE=0``, or
 ``native=False``) the generated Python runs, vectorized over the states by
 NumPy, and LAPACK solves.  Both raise numpy.linalg.LinAlgError where M is not
 positive definite.
@@ -45,6 +48,11 @@ import numpy as np
 
 from ..errors import ModelError
 from .model import run_generated
+
+
+def _no_shortcut(*_):
+    """Without C: no one-state shortcut (the general path runs)."""
+    return None
 
 
 class Derivatives:
@@ -60,6 +68,10 @@ class Derivatives:
         self.effort_names: tuple[str, ...] = tuple(effort_names)
         self.parameters: tuple[str, ...] = tuple(parameters)
         self.n, self.m = self._python["N"], self._python["M_EFFORTS"]
+        # one state given as float64 arrays: the C alone (None otherwise, or without C)
+        self._one_forward, self._one_inverse, self._one_dynamics = (
+            (native.one_forward, native.one_inverse, native.one_dynamics)
+            if native is not None else (_no_shortcut,) * 3)
 
     def _states(self, q, dq, last, width: int, what: str):
         """q, dq, ``last`` as contiguous float arrays, all 1-D (one state) or all 2-D
@@ -92,6 +104,9 @@ class Derivatives:
 
     def forward_dynamics(self, t, q, dq, tau):
         """ddq solving M ddq = F + B tau: (n,) at one state, (N, n) at N states."""
+        ddq = self._one_dynamics(t, q, dq, tau)
+        if ddq is not None:
+            return ddq
         q, dq, tau = self._states(q, dq, tau, self.m, "tau")
         if self.native is not None:
             return self._rows(self.native.dynamics, t, q, dq, tau, (self.n,))
@@ -100,6 +115,9 @@ class Derivatives:
     def forward_derivatives(self, t, q, dq, tau):
         """(d(ddq)/dq, d(ddq)/d(dq), d(ddq)/dtau): (n, n), (n, n), (n, m) at one
         state, (N, n, n), (N, n, n), (N, n, m) at N states (rows of q, dq, tau)."""
+        fast = self._one_forward(t, q, dq, tau)
+        if fast is not None:
+            return fast
         n = self.n
         q, dq, tau = self._states(q, dq, tau, self.m, "tau")
         if self.native is None:
@@ -110,6 +128,9 @@ class Derivatives:
     def inverse_derivatives(self, t, q, dq, ddq):
         """(d(ID)/dq, d(ID)/d(dq), M), ID = M ddq - F: (n, n) each at one state,
         (N, n, n) at N states."""
+        fast = self._one_inverse(t, q, dq, ddq)
+        if fast is not None:
+            return fast
         n = self.n
         q, dq, ddq = self._states(q, dq, ddq, n, "ddq")
         if self.native is None:

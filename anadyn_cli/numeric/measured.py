@@ -23,6 +23,15 @@ multiplied by ``noise_gain``.
 sample: the piecewise quintic through the samples with those values as its
 value, first and second derivative (``scipy.interpolate.BPoly``), so it is
 exact at the samples and its own derivatives are its rates and accelerations.
+
+A robot with spherical (or floating) joints has speeds that are not rates
+(``SpeedMap``): each joint's unit quaternion (qw, qx, qy, qz) is four columns
+of coordinates, its speeds are the body's angular velocity w (body axes) and
+the rate and acceleration columns are the speeds' (``wx``) and their
+derivatives' (``dwx``).  Quaternion rows are made unit (a warning when one is
+off by more than ``ROUNDING``, an error beyond ``NORM_TOLERANCE``) and their
+signs made continuous (q and -q are one attitude); missing speeds come from
+the differentiated quaternion, w = 2 vec(conj(q) (x) dq).
 """
 from __future__ import annotations
 
@@ -40,6 +49,8 @@ DEFAULT_WINDOW = 21          # samples of the differentiator's local fit
 DEFAULT_ORDER = 3            # its polynomial degree
 UNIFORM = 1e-6               # largest relative spread of the time steps treated as uniform
 CHUNK = 4096                 # samples per batch of the non-uniform local fits
+ROUNDING = 1e-6              # | |q| - 1 | of a measured quaternion made unit silently
+NORM_TOLERANCE = 1e-2        # ... made unit with a warning up to this, refused beyond
 
 
 @dataclass(frozen=True)
@@ -139,6 +150,102 @@ def noise_gain(step: float, window: int = DEFAULT_WINDOW, order: int = DEFAULT_O
     return float(np.linalg.norm(savgol_coeffs(window, order, deriv=deriv, delta=step)))
 
 
+def product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The Hamilton product a (x) b of quaternions (w, x, y, z) along the last axis."""
+    aw, av, bw, bv = a[..., :1], a[..., 1:], b[..., :1], b[..., 1:]
+    return np.concatenate([aw * bw - np.sum(av * bv, -1, keepdims=True),
+                           aw * bv + bw * av + np.cross(av, bv)], -1)
+
+
+def conjugate(a: np.ndarray) -> np.ndarray:
+    return a * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+@dataclass(frozen=True)
+class SpeedMap:
+    """Coordinates' rates <-> speeds of a robot with spherical joints.
+
+    ``quaternions``: each spherical joint's coordinate indices (qw, qx, qy, qz), as the
+    numeric model's ``quaternions``.  The other coordinates keep their order and have
+    their rates as speeds; the quaternions' speeds follow, three each (the body's angular
+    velocity w in body axes), in the same order.  With dq = 1/2 q (x) (0, w):
+
+        w  = 2 vec(conj(q) (x) dq) / |q|^2
+        dw = 2 vec(conj(q) (x) ddq) / |q|^2 - 2 w (q . dq) / |q|^2
+
+    exact for a quaternion of any norm (its direction is the attitude), and back
+
+        dq = 1/2 q (x) (0, w),   ddq = 1/2 (dq (x) (0, w) + q (x) (0, dw)).
+    """
+    nq: int
+    quaternions: tuple
+
+    @property
+    def plain(self) -> list[int]:
+        """The coordinates that are not a quaternion's: their speeds are their rates."""
+        taken = {i for group in self.quaternions for i in group}
+        return [i for i in range(self.nq) if i not in taken]
+
+    @property
+    def n(self) -> int:
+        return self.nq - len(self.quaternions)
+
+    def angular(self, j: int) -> slice:
+        """The speeds of quaternion ``j``: its angular velocity's three."""
+        first = len(self.plain) + 3 * j
+        return slice(first, first + 3)
+
+    def speeds(self, q, dq, ddq) -> tuple[np.ndarray, np.ndarray]:
+        """(u, du) (..., n) from the coordinates, their rates and accelerations (..., nq)."""
+        q, dq, ddq = (np.asarray(v, dtype=float) for v in (q, dq, ddq))
+        shape = q.shape[:-1] + (self.n,)
+        u, du = np.empty(shape), np.empty(shape)
+        plain = self.plain
+        u[..., :len(plain)], du[..., :len(plain)] = dq[..., plain], ddq[..., plain]
+        for j, group in enumerate(self.quaternions):
+            a, da, dda = (v[..., list(group)] for v in (q, dq, ddq))
+            square = np.sum(a * a, -1, keepdims=True)
+            w = 2 * product(conjugate(a), da)[..., 1:] / square
+            u[..., self.angular(j)] = w
+            du[..., self.angular(j)] = (2 * product(conjugate(a), dda)[..., 1:]
+                                        - 2 * w * np.sum(a * da, -1, keepdims=True)) / square
+        return u, du
+
+    def rates(self, q, u, du) -> tuple[np.ndarray, np.ndarray]:
+        """(dq, ddq) (..., nq) from the coordinates (..., nq) and the speeds (..., n)."""
+        q, u, du = (np.asarray(v, dtype=float) for v in (q, u, du))
+        dq, ddq = np.empty_like(q), np.empty_like(q)
+        plain = self.plain
+        dq[..., plain], ddq[..., plain] = u[..., :len(plain)], du[..., :len(plain)]
+        for j, group in enumerate(self.quaternions):
+            a = q[..., list(group)]
+            w, dw = (np.concatenate([np.zeros(v.shape[:-1] + (1,)), v[..., self.angular(j)]],
+                                    -1) for v in (u, du))
+            da = product(a, w) / 2
+            dq[..., list(group)] = da
+            ddq[..., list(group)] = (product(da, w) + product(a, dw)) / 2
+        return dq, ddq
+
+    def unit(self, q: np.ndarray) -> np.ndarray:
+        """``q`` with every quaternion divided by its norm."""
+        q = np.array(q, dtype=float)
+        for group in self.quaternions:
+            q[..., list(group)] /= np.linalg.norm(q[..., list(group)], axis=-1, keepdims=True)
+        return q
+
+    def deviations(self, q: np.ndarray, reference: np.ndarray) -> np.ndarray:
+        """(..., nq - 3 k): |q_i - reference_i| for the other coordinates, then for every
+        quaternion the angle of the turn between the two attitudes, 2 asin |vec(conj(r)
+        (x) q)| (both made unit; rad)."""
+        plain = self.plain
+        out = [np.abs(q[..., plain] - reference[..., plain])]
+        a, b = self.unit(q), self.unit(reference)
+        for group in self.quaternions:
+            turn = product(conjugate(b[..., list(group)]), a[..., list(group)])[..., 1:]
+            out.append(2 * np.arcsin(np.minimum(np.linalg.norm(turn, axis=-1), 1.0))[..., None])
+        return np.concatenate(out, -1)
+
+
 @dataclass(frozen=True, eq=False)
 class Table:
     """Columns of a measured CSV, by name (the ones asked for), and the file's name."""
@@ -211,10 +318,12 @@ def read_table(path, required, optional=(), note: str = "") -> Table:
 
 @dataclass(frozen=True, eq=False)
 class MeasuredMotion:
-    """q, dq, ddq at the measured samples (arrays (N, n)) and between them.
+    """q (N, nq), and the speeds dq and their derivatives ddq (N, n), at the measured
+    samples, and between them.
 
     ``given``: which of "dq", "ddq" the file gave; the others come from
-    ``differentiator``."""
+    ``differentiator``.  ``speed_map``: with spherical joints, how the speeds are
+    made from the coordinates' rates (None: the speeds are the rates)."""
     source: str
     names: tuple[str, ...]
     t: np.ndarray
@@ -224,6 +333,7 @@ class MeasuredMotion:
     given: tuple[str, ...]
     differentiator: Differentiator
     kind: str = "measured"
+    speed_map: SpeedMap | None = None
 
     @property
     def duration(self) -> float:
@@ -243,39 +353,64 @@ class MeasuredMotion:
 
     def __call__(self, t):
         """q, dq, ddq at ``t`` (scalar or array, within the samples' times): arrays of
-        shape t.shape + (n,), the samples themselves at the sample times."""
-        return tuple(p(t) for p in self._spline)
+        shape t.shape + (nq or n,), the samples themselves at the sample times (when
+        every t is one, they are returned with no spline built: ``samples_near``)."""
+        at = np.asarray(t, dtype=float)
+        k = np.clip(np.searchsorted(self.t, at), 0, len(self.t) - 1)
+        if np.array_equal(self.t[k], at):
+            return self.q[k], self.dq[k], self.ddq[k]
+        q, dq, ddq = (p(t) for p in self._spline)
+        if self.speed_map is None:
+            return q, dq, ddq
+        return (q, *self.speed_map.speeds(q, dq, ddq))
+
+    def samples_near(self, times) -> np.ndarray:
+        """The sample time nearest each of ``times``."""
+        k = np.clip(np.searchsorted(self.t, times), 1, len(self.t) - 1)
+        before = np.abs(np.asarray(times) - self.t[k - 1]) <= np.abs(self.t[k] - times)
+        return self.t[np.where(before, k - 1, k)]
 
     @cached_property
     def _spline(self):
-        """The piecewise quintic with value q, slope dq, curvature ddq at every sample,
-        and its two derivatives."""
+        """The piecewise quintic with value q, slope dq, curvature ddq at every sample
+        (the coordinates' rates and accelerations), and its two derivatives."""
         from scipy.interpolate import BPoly
 
-        spline = BPoly.from_derivatives(self.t, np.stack([self.q, self.dq, self.ddq], 1))
+        dq, ddq = ((self.dq, self.ddq) if self.speed_map is None
+                   else self.speed_map.rates(self.q, self.dq, self.ddq))
+        spline = BPoly.from_derivatives(self.t, np.stack([self.q, dq, ddq], 1))
         return spline, spline.derivative(), spline.derivative(2)
 
 
-def read_motion(path, names, differentiator: Differentiator | None = None) -> MeasuredMotion:
+def read_motion(path, names, differentiator: Differentiator | None = None,
+                speeds=None, quaternions: tuple = ()) -> MeasuredMotion:
     """The motion of coordinates ``names`` from a CSV (``read_table``): their columns,
-    every ``d<name>`` / ``dd<name>`` when the file gives all of them, else
-    differentiated by ``differentiator`` (default: ``Differentiator()``)."""
+    every speed's column (``speeds``, default ``d<name>``) and its derivative's
+    (``d<speed>``) when the file gives all of them, else differentiated by
+    ``differentiator`` (default: ``Differentiator()``).  ``quaternions``: each
+    spherical joint's coordinate indices (``SpeedMap``); their rows are made unit
+    and of continuous sign."""
     differentiator = differentiator or Differentiator()
     names = tuple(names)
-    table = read_table(path, ("t", *names), [p + n for p in ("d", "dd") for n in names],
-                       " (the robot's coordinates; optionally d<coordinate> and "
-                       "dd<coordinate> for each)")
+    speeds = tuple("d" + n for n in names) if speeds is None else tuple(speeds)
+    kinds = {"d": speeds, "dd": tuple("d" + u for u in speeds)}
+    note = (" (the robot's coordinates; optionally d<coordinate> and dd<coordinate> for each)"
+            if not quaternions else
+            f" (the robot's coordinates; optionally the speeds {', '.join(speeds)} and "
+            "their derivatives d<speed>)")
+    table = read_table(path, ("t", *names), [*kinds["d"], *kinds["dd"]], note)
     t = table["t"]
     columns = {}
-    for prefix in ("d", "dd"):
-        present = [name for name in names if prefix + name in table]
-        if present and len(present) != len(names):
-            absent = [prefix + name for name in names if name not in present]
-            raise ModelError(f"has {', '.join(prefix + n for n in present)} but not "
-                             f"{', '.join(absent)}: give every {prefix}<coordinate> column "
-                             "or none", source=table.source)
+    for prefix, wanted in kinds.items():
+        present = [name for name in wanted if name in table]
+        if present and len(present) != len(wanted):
+            absent = [name for name in wanted if name not in present]
+            what = (f"{prefix}<coordinate>" if not quaternions
+                    else "speed" if prefix == "d" else "d<speed>")
+            raise ModelError(f"has {', '.join(present)} but not {', '.join(absent)}: give "
+                             f"every {what} column or none", source=table.source)
         if present:
-            columns[prefix] = np.stack([table[prefix + n] for n in names], -1)
+            columns[prefix] = np.stack([table[n] for n in wanted], -1)
     need = 2 if len(columns) == 2 else differentiator.window
     if len(t) < need:
         raise ModelError(f"{len(t)} sample{'s' * (len(t) != 1)}: "
@@ -283,10 +418,45 @@ def read_motion(path, names, differentiator: Differentiator | None = None) -> Me
                             if need > 2 else "a motion ") + f"needs at least {need}",
                          source=table.source)
     q = np.stack([table[n] for n in names], -1)
+    speed_map = SpeedMap(len(names), tuple(quaternions)) if quaternions else None
+    if speed_map is not None:
+        q = _unit_quaternions(table, names, q, speed_map)
     if len(columns) < 2:
         rates, accelerations = differentiator.derivatives(t, q)
+        if speed_map is not None:
+            rates, accelerations = speed_map.speeds(q, rates, accelerations)
         columns.setdefault("d", rates)
         columns.setdefault("dd", accelerations)
-    given = tuple(k for k, prefix in (("dq", "d"), ("ddq", "dd")) if prefix + names[0] in table)
+    given = tuple(k for k, prefix in (("dq", "d"), ("ddq", "dd")) if kinds[prefix][0] in table)
     return MeasuredMotion(table.source, names, t, q, columns["d"], columns["dd"], given,
-                          differentiator)
+                          differentiator, speed_map=speed_map)
+
+
+def _unit_quaternions(table: Table, names: tuple, q: np.ndarray, speed_map: SpeedMap
+                      ) -> np.ndarray:
+    """``q`` with every quaternion row made unit (a warning when one is off by more than
+    ROUNDING; ModelError beyond NORM_TOLERANCE) and each row's sign chosen nearest the
+    previous row's (q and -q are one attitude; a sign flip would wreck the derivatives)."""
+    from ..model.library import announce
+
+    q = q.copy()
+    for group in speed_map.quaternions:
+        index = list(group)
+        norm = np.linalg.norm(q[:, index], axis=1)
+        off = np.abs(norm - 1)
+        label = f"the quaternion ({', '.join(names[i] for i in index)})"
+        for limit in (NORM_TOLERANCE, ROUNDING):         # the first row beyond each
+            k = int(np.argmax(off > limit))
+            if off[k] <= limit:
+                continue
+            if limit == NORM_TOLERANCE:
+                raise ModelError(f"{label} has norm {norm[k]:.6g} at t = {table['t'][k]:g} s;"
+                                 f" it must be a unit quaternion (within {NORM_TOLERANCE:g})",
+                                 source=table.source)
+            announce(f"{table.source}: {label} has norm {norm[k]:.9g} at t = "
+                     f"{table['t'][k]:g} s (off 1 by up to {off.max():.3g}); made unit",
+                     warning=True)
+        rows = q[:, index] / norm[:, None]
+        flips = np.cumsum(np.concatenate([[0], np.sum(rows[1:] * rows[:-1], 1) < 0])) % 2
+        q[:, index] = rows * np.where(flips, -1.0, 1.0)[:, None]
+    return q

@@ -94,6 +94,9 @@ class NumericModel:
         self._contacts = namespace.get("contacts")
         #: per contact: stiffness k, exponent p and its body's mass (check's time constant)
         self.contact_laws: tuple = namespace.get("CONTACT_LAWS", ())
+        #: the rigid contact model's (restitution, friction, bodies) per contact; None: the
+        #: robot has none, or compliant ones (``numeric.impacts`` runs the rigid model)
+        self.rigid_contacts: tuple | None = namespace.get("RIGID_CONTACTS")
         self._namespace = namespace               # the whole module (numeric.constrained)
 
     @property
@@ -142,10 +145,24 @@ class NumericModel:
                 x[:, index] /= norm[:, None]
         return x, drift
 
-    def problem(self) -> Problem:
-        """The direct dynamics under the control laws, for ``integrators.integrate``."""
+    def problem(self, open_contacts: bool = False) -> Problem:
+        """The direct dynamics under the control laws, for ``integrators.integrate``;
+        ModelError with rigid contacts (``refuse_rigid_contacts``) unless
+        ``open_contacts``: then the field while every contact is open (no contact force),
+        which the rigid model integrates between its events."""
+        if not open_contacts:
+            self.refuse_rigid_contacts()
         jacobian = self.jacobian if self._jacobian is not None else None
         return Problem(self.rhs, jacobian, self.state_names(), self.diagnose)
+
+    def refuse_rigid_contacts(self) -> None:
+        """ModelError (one line, exit 2) when the robot's contacts are rigid: their
+        impacts and constraints run in simulate only (``numeric.impacts``), never in the
+        smooth field that the other services integrate."""
+        if self.rigid_contacts is not None:
+            raise ModelError("the rigid contact model runs from event to event in simulate, "
+                             "accuracy and check only (its impacts are no smooth field); "
+                             "use model: compliant for this command", source=self.info.source)
 
     def accelerations(self, t: float, x) -> list[float]:
         """ddq solving M ddq = G at one state (numpy.linalg.LinAlgError if M is singular)."""
@@ -256,9 +273,10 @@ class NumericModel:
                           np.hstack([np.zeros(3), down])[None, :]])
 
     def contacts(self, t, q, dq) -> np.ndarray:
-        """(contacts, 6, ...) per contact: normal force, friction along the ground's
-        tangents t1, t2 (N), penetration (m, < 0: the gap), spring energy (J) and
-        dissipated power (W) (``numeric.contact``)."""
+        """(contacts, 9, ...) per contact: normal force, friction along the ground's
+        tangents t1, t2 (N), penetration (m, < 0: the gap), spring energy (J),
+        dissipated power (W) and the contact point's velocity along n, t1, t2 (m/s)
+        (``numeric.contact``)."""
         with np.errstate(all="ignore"):
             return np.moveaxis(self._contacts(t, *q, *dq), (-2, -1), (0, 1))
 

@@ -13,12 +13,8 @@ are derived from).  What is drawn, for each body:
   view's plane is a dot in a ring;
 - its **frame**: x, y, z in red, green, blue at the frame origin;
 - its **centre of mass**: a black-and-white disc, labelled with the body's name;
-- its **contacts** (a ``contacts`` section): a sphere as its outline (in 3-D two great
-  circles), a point as a small diamond; each ground plane as a grey line in a
-  projection that cuts it (a translucent square in 3-D); in an animation the
-  **contact forces** as red arrows from where each acts, all on one scale
-  (``Frame.newton``, metres per newton: the largest force of the run is drawn
-  0.3 of the robot's size long).
+- its **contacts** and their forces (``contact_drawing``; ``Frame.newton``, metres
+  per newton: the largest force of the run is drawn 0.3 of the robot's size long).
 
 Views: a 3-D view and three projections on the world planes, oriented so
 that "up" is against gravity (z when there is none): front (the first other
@@ -36,11 +32,10 @@ import numpy as np
 
 from ..model.joints import JOINT_TYPES
 from ..numeric.frames import Poses, Skeleton
+from .contact_drawing import ContactArtist
 
 AXES = "xyz"
 LINK, SLEEVE, AXIS, COM, TRACE = "#1f4e79", "#7fa7d1", "#8e44ad", "black", "#e67e22"
-CONTACT, FORCE, GROUND = "#16a085", "#c0392b", "0.45"
-CIRCLE = np.linspace(0.0, 2 * np.pi, 41)
 FRAME_COLORS = ("#d62728", "#2ca02c", "#1f77b4")
 #: a joint's marker: a cross where it is welded, a square where it slides, a disc where it turns
 JOINT_MARKERS = {word: ("X" if not kind.moving else "s" if kind.linear else "o")
@@ -114,41 +109,14 @@ class Frame:
         ``skeleton``'s contacts); forces up to ``largest_force`` N drawn 0.3 of its size."""
         pts = points(poses)
         if skeleton is not None and skeleton.contacts:
+            from .contact_drawing import contact_extent
+
             pts = np.concatenate([pts, contact_extent(skeleton, poses)])
         pts = pts[np.isfinite(pts).all(axis=1)]
         low, high = pts.min(axis=0), pts.max(axis=0)
         size = max(float((high - low).max()), 0.05)
         newton = 0.3 * size / largest_force if largest_force > 0 else 0.0
         return cls(low, high, 0.22 * size, 0.12 * size, newton)
-
-
-def contact_extent(skeleton: Skeleton, poses: Poses) -> np.ndarray:
-    """Rows of 3: each contact sphere's centre +- its radius along the world axes, at
-    every configuration of ``poses``."""
-    rows = []
-    for c in skeleton.contact_list():
-        centre = c.world_centre(poses).reshape(-1, 3)
-        rows += [centre + c.radius * s * e for e in np.eye(3) for s in (-1, 1)]
-    return np.concatenate(rows) if rows else np.zeros((0, 3))
-
-
-def contact_forces(skeleton: Skeleton, poses: Poses, columns: dict) -> np.ndarray:
-    """(..., contacts, 3): each contact's force in world axes, from the run's columns
-    ``<name>_fn``, ``_ft1``, ``_ft2`` (``columns``: name -> values, one per
-    configuration of ``poses``): f = fn n + ft1 t1 + ft2 t2 on a ground; between two
-    spheres fn n alone (their friction column is a magnitude, its direction turns).
-    A contact without its columns gets no force (zeros)."""
-    out = np.zeros(poses.origin.shape[:-2] + (len(skeleton.contacts), 3))
-    for k, c in enumerate(skeleton.contact_list()):
-        if f"{c.name}_fn" not in columns:
-            continue
-        fn = np.asarray(columns[f"{c.name}_fn"], dtype=float)[..., None]
-        out[..., k, :] = fn * c.normal_at(poses)
-        if c.partner is None:
-            for key, tangent in zip(("_ft1", "_ft2"), c.tangents):
-                values = np.asarray(columns.get(c.name + key, 0.0), dtype=float)[..., None]
-                out[..., k, :] += values * np.asarray(tangent, dtype=float)
-    return out
 
 
 def link_path(skeleton: Skeleton, pose: Poses, i: int) -> np.ndarray:
@@ -208,15 +176,6 @@ class RobotArtist:
                          markersize=10, color="0.45", zorder=1, label="ground")[0]
         self.mounts = plot(*([nan] * self.dims), color="0.55", linewidth=2.4, zorder=1,
                            solid_capstyle="round")[0]      # ground to the first joints
-        self.contacts = skeleton.contact_list()
-        self.spheres = plot(*([nan] * self.dims), color=CONTACT, linewidth=1.4, zorder=6,
-                            label="contact")[0]
-        self.contact_points = plot(*([nan] * self.dims), linestyle="none", marker="D",
-                                   markersize=4, color=CONTACT, zorder=6)[0]
-        self.forces = plot(*([nan] * self.dims), color=FORCE, linewidth=2.0, zorder=9,
-                           label="contact force")[0]
-        self.force_tips = plot(*([nan] * self.dims), linestyle="none", marker="o",
-                               markersize=3.5, color=FORCE, zorder=9)[0]
         moving = [i for i, kind in enumerate(skeleton.joint_types) if JOINT_TYPES[kind].moving]
         self.names = []
         self.joint_names = []
@@ -230,75 +189,7 @@ class RobotArtist:
             self._static_2d()
         else:
             self._static_3d()
-        self._grounds()
-
-    def _grounds(self) -> None:
-        """Each ground plane of the contacts, drawn once: its trace across a projection
-        (none where the plane is parallel to it), a translucent square in 3-D."""
-        f = self.frame
-        seen = set()
-        for c in self.contacts:
-            if c.partner is not None or (tuple(c.normal), c.height) in seen:
-                continue
-            seen.add((tuple(c.normal), c.height))
-            n = np.asarray(c.normal, dtype=float)
-            foot = f.center - (n @ f.center - c.height) * n     # the plane's point nearest
-            if self.three_d:
-                from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
-                t1, t2 = (np.asarray(v, dtype=float) * f.half for v in c.tangents)
-                square = [foot + a * t1 + b * t2 for a, b in ((-1, -1), (1, -1), (1, 1),
-                                                               (-1, 1))]
-                self.ax.add_collection3d(Poly3DCollection([square], facecolor=GROUND,
-                                                          alpha=0.18, edgecolor="none"))
-                continue
-            h, v = self.view.plane
-            across = np.array([-n[v], n[h]])
-            if np.linalg.norm(across) < 1e-9:
-                continue
-            across /= np.linalg.norm(across)
-            spot = np.array([foot[h], foot[v]])
-            ends = np.array([spot - 4 * f.half * across, spot + 4 * f.half * across])
-            self.ax.plot(ends[:, 0], ends[:, 1], color=GROUND, linewidth=2.0, zorder=1,
-                         label="ground")
-            below = 0.04 * f.size * np.array([n[h], n[v]])
-            band = np.array([ends[0], ends[1], ends[1] - below, ends[0] - below])
-            self.ax.fill(band[:, 0], band[:, 1], color=GROUND, alpha=0.2, linewidth=0,
-                         zorder=1)
-
-    def _outline(self, centre: np.ndarray, radius: float, normal) -> list[np.ndarray]:
-        """A sphere's outline: the circle in the view's plane, or in 3-D the circle about
-        the ground's normal (z for a pair) and one across it."""
-        if not self.three_d:
-            h, v = self.view.plane
-            e_h, e_v = np.eye(3)[h], np.eye(3)[v]
-            return [centre + radius * (np.outer(np.cos(CIRCLE), e_h)
-                                       + np.outer(np.sin(CIRCLE), e_v))]
-        n = np.asarray(normal if len(normal) else (0.0, 0.0, 1.0), dtype=float)
-        a = np.cross(n, np.eye(3)[int(np.argmin(np.abs(n)))])
-        a /= np.linalg.norm(a)
-        b = np.cross(n, a)
-        return [centre + radius * (np.outer(np.cos(CIRCLE), u) + np.outer(np.sin(CIRCLE), w))
-                for u, w in ((a, b), (a, n))]
-
-    def _draw_contacts(self, pose: Poses, forces) -> None:
-        spheres, dots, arrows, tips = [], [], [], []
-        for k, c in enumerate(self.contacts):
-            centre = c.world_centre(pose)
-            if c.radius > 0:
-                spheres += self._outline(centre, c.radius, c.normal)
-            else:
-                dots.append(centre)
-            if forces is not None and self.frame.newton > 0:
-                start = c.force_point(pose)
-                end = start + self.frame.newton * np.asarray(forces[k], dtype=float)
-                if np.linalg.norm(end - start) > 1e-3 * self.frame.size:
-                    arrows.append(np.array([start, end]))
-                    tips.append(end)
-        self._set(self.spheres, _joined(spheres))
-        self._set(self.contact_points, np.array(dots).reshape(-1, 3))
-        self._set(self.forces, _joined(arrows))
-        self._set(self.force_tips, np.array(tips).reshape(-1, 3))
+        self.contacts = ContactArtist(self) if skeleton.contacts else None
 
     @property
     def dims(self) -> int:
@@ -323,6 +214,10 @@ class RobotArtist:
             line.set_data_3d(*coords)
         else:
             line.set_data(*coords)
+
+    def set_pieces(self, line, pieces: list[np.ndarray]) -> None:
+        """Draw ``pieces`` (rows of points each) with the one artist ``line``."""
+        self._set(line, _joined(pieces))
 
     def _place(self, text, xyz) -> None:
         if self.three_d:
@@ -403,23 +298,21 @@ class RobotArtist:
         for i, text in self.joint_names:
             spot = pose.joint[i] + (f.arrow * pose.axis[i] if i in in_plane else 0)
             self._place(text, spot + offset)
-        if self.contacts:
-            self._draw_contacts(pose, forces)
+        if self.contacts is not None:
+            self.contacts.update(pose, forces)
 
     def moving(self) -> list:
         """The artists ``update`` changes (redrawn alone in an animation)."""
         return [self.sleeves, self.links, self.mounts, *self.triads, self.axes_lines,
                 self.axis_tips,
                 self.out_of_plane, *self.joints.values(), self.coms, self.com_cores,
-                self.spheres, self.contact_points, self.forces, self.force_tips,
+                *(self.contacts.moving() if self.contacts is not None else ()),
                 *self.names, *(text for _, text in self.joint_names)]
 
     def handles(self) -> list:
         """The artists worth a legend entry."""
-        contact = ([self.spheres] if any(c.radius > 0 for c in self.contacts) else []) + (
-            [self.forces] if self.frame.newton > 0 else [])
         return [self.links, self.axes_lines, *self.joints.values(), self.coms, *self.triads,
-                self.base, *contact]
+                self.base, *(self.contacts.handles() if self.contacts is not None else ())]
 
 
 def declutter(figure, artists: list["RobotArtist"]) -> None:

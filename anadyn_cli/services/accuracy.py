@@ -43,7 +43,11 @@ tighter tolerance (``anadyn simulate --estimate-error``).
 
 On a scene with contacts each run also gets ``event_error``: the largest difference
 between its touch-down and lift-off times and its reference's, both found from the
-output rows (``contact_run``); inf when a bounce is missing or extra.
+output rows (``contact_run``); inf when a bounce is missing or extra.  With rigid
+contacts (``numeric.impacts``) the runs go from event to event with solve_ivp's
+methods only (auto and odeint have no dense output to locate events on), and
+``event_error`` compares the events each run located (touch-downs, lift-offs, slips,
+sticks) with the reference's.
 """
 from __future__ import annotations
 
@@ -92,15 +96,41 @@ def run(problem: Problem, x0: np.ndarray, grid: np.ndarray, method: str, rtol: f
     full passes over the references' many objects would otherwise land in
     whichever runs come first and double their times.
     """
+    return _timed(lambda: integrators.integrate(problem, x0, grid, method, rtol, atol,
+                                                budget, seconds))
+
+
+def _timed(call):
+    """(call(), wall seconds), the cyclic garbage collector off while it runs."""
     enabled = gc.isenabled()
     gc.disable()
     start = time.perf_counter()
     try:
-        solution = integrators.integrate(problem, x0, grid, method, rtol, atol, budget, seconds)
+        result = call()
     finally:
         if enabled:
             gc.enable()
-    return solution, time.perf_counter() - start
+    return result, time.perf_counter() - start
+
+
+class RigidRuns:
+    """Runs of a scene with rigid contacts (``numeric.impacts.run``: from event to event,
+    solve_ivp's methods only), timed as ``run``; ``events[(method, rtol)]``: the events
+    each located (touch-downs, lift-offs, slips, sticks: an impact's share on a closed
+    contact left out), for ``event_error``.  No call budget: an event-driven run has
+    no stiffness to blow it up."""
+
+    def __init__(self, model: NumericModel, grid: np.ndarray):
+        self.model, self.grid, self.events = model, grid, {}
+
+    def __call__(self, method: str, rtol: float, atol: float, budget: int | None = None,
+                 seconds: float | None = None):
+        from ..numeric import impacts
+
+        ran, wall = _timed(lambda: impacts.run(self.model, self.grid, method, rtol, atol))
+        self.events[(method, rtol)] = [e for e in ran.contacts.located
+                                       if e["event"] != "impulse"]
+        return ran.solution, wall
 
 
 # ----------------------------------------------------------------------------
@@ -138,12 +168,13 @@ def _stability_bound(problem: Problem, x0: np.ndarray, grid: np.ndarray) -> floa
 
 def references(problem: Problem, x0: np.ndarray, grid: np.ndarray, count: int = 2,
                budget: int = REFERENCE_CALLS, exclude: tuple[str, ...] = (),
-               candidates=REFERENCE_CANDIDATES,
-               seconds: float = REFERENCE_SECONDS) -> tuple[list[Reference], list[Reference]]:
+               candidates=REFERENCE_CANDIDATES, seconds: float = REFERENCE_SECONDS,
+               rigid: RigidRuns | None = None) -> tuple[list[Reference], list[Reference]]:
     """The first ``count`` candidates that finish within ``budget`` RHS calls and ``seconds``.
 
-    Candidates whose family is in ``exclude`` are not tried.  Returns
-    (references, attempts that were given up, with the reason in ``note``).
+    Candidates whose family is in ``exclude`` are not tried; with ``rigid`` the runs
+    are its own (``problem`` unused).  Returns (references, attempts that were given up,
+    with the reason in ``note``).
     """
     found: list[Reference] = []
     given_up: list[Reference] = []
@@ -154,14 +185,15 @@ def references(problem: Problem, x0: np.ndarray, grid: np.ndarray, count: int = 
         if family(method) in excluded:
             continue
         atol = rtol * ATOL_RATIO
-        if method in EXPLICIT:
+        if method in EXPLICIT and rigid is None:
             bound = _stability_bound(problem, x0, grid)
             if bound > budget:
                 given_up.append(Reference(method, rtol, atol, None, note=(
                     f"skipped: stiff, its stability bound alone is ~{bound:.2g} RHS calls "
                     f"(budget {budget})")))
                 continue
-        solution, wall = run(problem, x0, grid, method, rtol, atol, budget, seconds)
+        solution, wall = (rigid(method, rtol, atol) if rigid is not None else
+                          run(problem, x0, grid, method, rtol, atol, budget, seconds))
         over = solution.over_budget
         if over is not None:
             limit = f"{seconds:g} s" if over.seconds else f"{budget} RHS calls"
@@ -280,11 +312,19 @@ def study(model: NumericModel, methods=integrators.METHODS,
     settings = resolve(robot, t_end=t_end, output_step=output_step)
     grid = output_grid(settings.t_end, settings.output_step)
     x0 = model.initial_state()
-    problem = model.problem()
+    rigid = RigidRuns(model, grid) if model.rigid_contacts is not None else None
+    problem = model.problem() if rigid is None else None
+    if rigid is not None:                         # the event-driven runs: solve_ivp's
+        methods = [m for m in methods if m in integrators.IVP_METHODS]
+
+    def runner(method: str, rtol: float, atol: float, budget: int | None = None):
+        return (rigid(method, rtol, atol) if rigid is not None else
+                run(problem, x0, grid, method, rtol, atol, budget))
+
     timings: dict = {}
     start = time.perf_counter()
     refs, given_up = references(problem, x0, grid, 2, reference_calls,
-                                seconds=reference_seconds)
+                                seconds=reference_seconds, rigid=rigid)
     timings["references"] = time.perf_counter() - start
     if not refs:
         raise NumericalError(f"{robot.source}: no reference solution: " +
@@ -307,7 +347,7 @@ def study(model: NumericModel, methods=integrators.METHODS,
                 continue
             if progress:
                 progress(method, rtol)
-            solution, wall = run(problem, x0, grid, method, rtol, atol, max_calls)
+            solution, wall = runner(method, rtol, atol, max_calls)
             if solution.over_budget is not None:
                 over = solution.over_budget
                 over_at = rtol
@@ -328,14 +368,17 @@ def study(model: NumericModel, methods=integrators.METHODS,
             walls = [wall]
             while len(walls) < repeats or (repeats > 1 and sum(walls) < MIN_TIMED
                                            and len(walls) < MAX_REPEATS):
-                walls.append(run(problem, x0, grid, method, rtol, atol)[1])
+                walls.append(runner(method, rtol, atol)[1])
             max_error, final_error = state_error(solution.x, ref.x)
             rows.append(Row(method, rtol, atol, "ok", solution.method, max_error, final_error,
                             min(walls), solution.rhs_calls, solution.jacobian_calls,
                             solution.steps, ref.describe()))
             if constrained.is_constrained(model):     # constraint drift, part of the error
                 rows[-1].drift = max(constrained.drift(model, solution.t, solution.x))
-            if model.contact_names:                   # the contact events' times
+            if rigid is not None:                     # the located events' times
+                rows[-1].event_error = contact_run.event_error(
+                    rigid.events[(method, rtol)], rigid.events[(ref.method, ref.rtol)])
+            elif model.contact_names:                 # the contact events' times
                 rows[-1].event_error = contact_run.event_error(*(
                     contact_run.run_report(model, grid, x).events() for x in (solution.x,
                                                                               ref.x)))
@@ -508,7 +551,9 @@ def table(result: AccuracyStudy, header_every: int | None = None) -> str:
             note = " ".join(p for p in ((f"ran {r.ran}" if r.ran != r.method else ""),
                                         "vs " + r.reference.split(" rtol")[0], r.note,
                                         "" if math.isnan(r.drift) else
-                                        f"constraint drift {r.drift:.1e}") if p)
+                                        f"constraint drift {r.drift:.1e}",
+                                        "" if math.isnan(r.event_error) else
+                                        f"events {r.event_error:.1e} s") if p)
             body.append(f"{r.method:<7} {r.rtol:7.0e} {r.max_error:9.2e}{mark or ' '} "
                          f"{r.final_error:10.2e} {_ms(r.wall_s):>9} {r.rhs_calls:7d} "
                          f"{r.jacobian_calls:5d} {r.steps:6d}  {note}")
@@ -521,18 +566,23 @@ def table(result: AccuracyStudy, header_every: int | None = None) -> str:
         lines.append("* within 10x of the reference error estimate: a bound, not a measurement")
     lines.append("")
     levels = result.levels()
+    ran_auto = any(r.method == "auto" for r in result.rows)
     if levels:
         lines.append(f"{'error <=':>9}  {'fastest setting':<22} {'time':>9}   "
-                     "auto (rank among the methods reaching it, odeint aside)")
+                     + ("auto (rank among the methods reaching it, odeint aside)" if ran_auto
+                        else "(auto not run)"))
         for e in levels:
             setting = f"{e['method']} rtol {e['rtol']:.0e}"
-            if e["auto_rank"] is None:
+            if not ran_auto:
+                auto = ""
+            elif e["auto_rank"] is None:
                 auto = "does not reach it"
             else:
                 auto = (f"rtol {e['auto_rtol']:.0e}, {_ms(e['auto_wall_s'])}: "
                         f"{_ordinal(e['auto_rank'])} of {e['methods_reaching']}, "
                         f"{e['auto_ratio']:.2g}x the fastest")
-            lines.append(f"{e['level']:9.0e}  {setting:<22} {_ms(e['wall_s']):>9}   {auto}")
+            lines.append(f"{e['level']:9.0e}  {setting:<22} {_ms(e['wall_s']):>9}   "
+                         f"{auto}".rstrip())
     return "\n".join(lines)
 
 

@@ -11,6 +11,10 @@ anadyn (C: <math.h>; Python: math; MATLAB: none):
     inverse(t, q, dq, ddq)    tau = pinv(B) (M ddq - F)
 
 and the LaTeX document the equations in the "... = 0" form and M, F, B.
+A robot with a spherical joint has nq coordinates (a unit quaternion each) and n
+speeds u: the same functions of q and u (named ``u``, ``du``), plus
+rates(q, u) = W(q) u (nq); rhs is [W(q) u, du] and jacobian [[R], [M^-1 K]],
+nq + n.  The derivatives and the traced exports refuse it (x = [q, dq] there).
 ``casadi`` and ``jax`` export forward_dynamics(t, q, dq, tau), inverse_dynamics(t, q,
 dq, ddq) and mass_matrix(q) from the recursive dynamics' traced statements
 (``output.export.traced``): serialized ``casadi.Function``s, or a module of pure
@@ -35,7 +39,7 @@ from .. import progress
 LANGUAGES = ("python", "c", "matlab", "latex", "casadi", "jax")
 #: languages built from the traced recursive dynamics (no formulation, no symbolic)
 TRACED = ("casadi", "jax")
-#: languages that can carry the derivatives' files (``derivatives``)
+#: languages that can carry the derivatives' files (``derivatives``) and the regressor's
 DERIVATIVES = ("c", "python")
 
 
@@ -49,7 +53,7 @@ class ExportResult:
 
 
 def check_options(lang: str, fragment: bool = False, symbolic: bool = False,
-                  derivatives: bool = False, parameters=()) -> None:
+                  derivatives: bool = False, parameters=(), regressor: bool = False) -> None:
     """Refuse impossible combinations before any work (ModelError, exit 2), and
     ``casadi`` without CasADi installed."""
     if lang not in LANGUAGES:
@@ -62,6 +66,11 @@ def check_options(lang: str, fragment: bool = False, symbolic: bool = False,
         raise SettingError("derivatives", "fold the robot file's numbers in, so not with "
                                           "symbolic (parameters names those to differentiate "
                                           "with respect to)")
+    if regressor and lang not in DERIVATIVES:
+        raise SettingError("regressor", f"applies to lang c and python, not {lang}")
+    if regressor and symbolic:
+        raise SettingError("regressor", "folds the robot file's numbers in, so not with "
+                                        "symbolic")
     if parameters and not derivatives:
         raise SettingError("parameters", "needs derivatives (it names the parameters to "
                                          "differentiate with respect to)")
@@ -74,17 +83,19 @@ def check_options(lang: str, fragment: bool = False, symbolic: bool = False,
 
 def export(robot, lang: str, formulation: str = "kane", symbolic: bool = False,
            fragment: bool = False, timings: dict | None = None, eom=None,
-           derivatives: bool = False, parameters=()) -> ExportResult:
+           derivatives: bool = False, parameters=(), regressor: bool = False) -> ExportResult:
     """The files of ``robot``'s equations in ``lang`` (``eom``: equations already derived,
     with ``symbolic`` parameters or not as asked); ``derivatives`` (c, python): also
     the derivatives' files (``output.export.derivatives``), with respect to the
-    robot file's ``parameters`` too."""
+    robot file's ``parameters`` too; ``regressor`` (c, python): also the regressor's
+    files (``output.export.regressor``)."""
     from ..output.export import c, latex, matlab, python
     from ..output.export import derivatives as derivative_files
+    from ..output.export import regressor as regressor_files
     from ..output.export.model import ExportModel, identifier
     from ..symbolic.formulations import derive
 
-    check_options(lang, fragment, symbolic, derivatives, parameters)
+    check_options(lang, fragment, symbolic, derivatives, parameters, regressor)
     refuse_closed_chain(robot, "export")
     timings = {} if timings is None else timings
     extra = {}
@@ -93,6 +104,11 @@ def export(robot, lang: str, formulation: str = "kane", symbolic: bool = False,
         with progress.task(f"tracing the derivatives of {robot.name}"):
             extra = derivative_files.files(robot, identifier(robot.name), lang, parameters)
         timings["derivatives"] = time.perf_counter() - start
+    if regressor:               # first too: a robot the regressor does not take is refused
+        start = time.perf_counter()
+        with progress.task(f"tracing the regressor of {robot.name}"):
+            extra.update(regressor_files.files(robot, identifier(robot.name), lang))
+        timings["regressor"] = time.perf_counter() - start
     if lang in TRACED:
         return _traced(robot, lang, timings)
     start = time.perf_counter()
@@ -152,6 +168,8 @@ def summary(result: ExportResult) -> dict:
         "robot": model.robot_name, "name": model.name, "lang": result.lang,
         "formulation": model.formulation, "evaluator": "closed-form", "symbolic": model.symbolic,
         "fragment": result.fragment, "coordinates": [c.name for c in model.coordinates],
+        # the speeds u of x = [q, u] when they are not the coordinates' rates
+        **({"speeds": [u.name for u in model.rates]} if model.kinematic is not None else {}),
         "efforts": [e.name for e in model.efforts], "controller": model.has_controller,
         "time_dependent": model.time_dependent,
         "parameters": {p.name: p.value for p in model.parameters},

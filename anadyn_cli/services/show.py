@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import SettingError
 from ..numeric.frames import Frames, Poses, Skeleton
 from .. import progress
-from ..output import drawing, plots
+from ..output import contact_drawing, drawing, plots
 from .. import files as output
 
 MAX_FRAMES = 150
@@ -277,7 +277,7 @@ def animate(frames: Frames, t: np.ndarray, q: np.ndarray, title: str,
     poses = frames(q[chosen.rows])
     forces = None
     if columns and frames.skeleton.contacts:
-        forces = drawing.contact_forces(frames.skeleton, poses, {
+        forces = contact_drawing.contact_forces(frames.skeleton, poses, {
             name: np.asarray(values)[chosen.rows] for name, values in columns.items()})
     largest = float(np.linalg.norm(forces, axis=-1).max()) if forces is not None else 0.0
     box = drawing.Frame.around(poses, frames.skeleton, largest)

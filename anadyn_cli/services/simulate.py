@@ -7,7 +7,8 @@ t = k * output_step exactly.  The speeds u are the coordinates' rates (W = 1)
 unless the robot has a spherical joint (``numeric.model``): then each row's
 quaternion is made unit after the run (the motion does not depend on its norm)
 and the largest distance of the integrated norm from 1 is reported
-(``quaternion_drift`` in simulate.json).
+(``quaternion_drift`` in simulate.json).  With rigid contacts the run goes from
+contact event to contact event, impacts applied between (``numeric.impacts``).
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ import numpy as np
 
 from ..errors import NumericalError
 from ..model.info import RobotInfo, Simulation
-from ..numeric import constrained, contact_run, integrators
+from ..numeric import constrained, contact_run, impacts, integrators
 from ..numeric.build import titled
 from ..numeric.model import NumericModel
 from ..numeric.settings import output_grid, resolve
@@ -77,9 +78,14 @@ def simulate(model: NumericModel, method: str | None = None, rtol: float | None 
     settings = resolve(model.info, method=method, rtol=rtol, atol=atol, t_end=t_end,
                        output_step=output_step)
     grid = output_grid(settings.t_end, settings.output_step)
-    problem = model.problem()
-    solution = integrators.integrate(problem, model.initial_state(), grid, settings.method,
-                                     settings.rtol, settings.atol)
+    rigid = model.rigid_contacts is not None        # impacts, constraints: numeric.impacts
+    if rigid:
+        run = impacts.run(model, grid, settings.method, settings.rtol, settings.atol)
+        solution = run.solution
+    else:
+        problem = model.problem()
+        solution = integrators.integrate(problem, model.initial_state(), grid,
+                                         settings.method, settings.rtol, settings.atol)
     timings["solve"] = solution.wall
     if model.quaternions:                    # the rows on the unit sphere, the drift kept
         solution.x, drift = model.on_manifold(solution.x)
@@ -96,11 +102,14 @@ def simulate(model: NumericModel, method: str | None = None, rtol: float | None 
                                  result.efforts)
     if constrained.is_constrained(model):       # drift and constraint forces on every row
         result.constraints = model.run_report(solution.t, solution.x)
-    result.contacts = contact_run.run_report(model, solution.t, solution.x)
+    result.contacts = run.contacts if rigid else contact_run.run_report(model, solution.t,
+                                                                        solution.x)
     if estimate_error and solution.success:
         start = time.perf_counter()
-        result.estimated_error = integrators.estimate_error(problem, solution, settings.rtol,
-                                                            settings.atol)
+        result.estimated_error = (impacts.estimate_error(model, solution, settings.rtol,
+                                                         settings.atol) if rigid else
+                                  integrators.estimate_error(problem, solution, settings.rtol,
+                                                             settings.atol))
         timings["estimate"] = time.perf_counter() - start
     return result
 

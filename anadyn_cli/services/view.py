@@ -295,7 +295,7 @@ def _contact_shapes(sk, extent: float) -> list[dict]:
 def _contact_arrows(sk, run: Run, chosen: np.ndarray, poses, extent: float) -> list[dict]:
     """The contact forces of the run (its ``<contact>_fn``, ``_ft1``, ``_ft2`` columns)
     where each acts (``numeric.frames.Contact.force_point``), green."""
-    from ..output.drawing import contact_forces
+    from ..output.contact_drawing import contact_forces
 
     forces = contact_forces(sk, poses, {name: values[chosen]
                                         for name, values in run.columns.items()})

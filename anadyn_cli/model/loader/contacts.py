@@ -1,8 +1,8 @@
-"""The ``contacts`` section: spheres and points on bodies against ground planes, under
-the compliant law (``model.contacts``).
+"""The ``contacts`` section: spheres, points, capsules and boxes on bodies against
+ground planes, under the compliant law (``model.contacts``).
 
     contacts:
-      model: compliant                         # the only one implemented
+      model: compliant                         # or rigid (friction, restitution only)
       ground: {normal: [0, 0, 1], height: 0}   # the default plane for every contact
       stiffness: 1e6                           # the law, for every contact ...
       damping: 0
@@ -11,18 +11,33 @@ the compliant law (``model.contacts``).
         - {body: ball, point: [0, 0, 0], radius: 0.1}
         - {name: toe, body: foot, point: [0.1, 0, 0], friction: 0.8}   # ... or per contact
         - {name: knock, body: a, radius: 0.1, against: {body: b, radius: 0.1}}   # two spheres
+        - {name: leg, body: shin, shape: capsule, radius: 0.05, from: [0, 0, 0], to: [0, 0, -0.4]}
+        - {name: crate, body: box, shape: box, size: [0.1, 0.2, 0.05], point: [0, 0, 0],
+           rpy: [0, 0, 0]}                     # half-extents; R = Rz(yaw) Ry(pitch) Rx(roll)
+
+``shape`` is ``point`` (no ``radius``; the default without one), ``sphere`` (the default
+with one), ``capsule`` (``radius`` and the segment's ends ``from``, ``to``, body axes) or
+``box`` (half-extents ``size``, centre ``point``, axes ``rpy``).  Against a ground a
+capsule becomes two sphere contacts ``<name>_1`` (``from``) and ``<name>_2`` (``to``),
+and a box eight point contacts at its corners, ``<name>_1`` ... ``<name>_8`` in the
+order of the signs of its half-extents (-, -, -), (-, -, +), (-, +, -), ... (+, +, +)
+(the last axis's sign changing fastest): the deepest point of either lies among them.
+Against a sphere it stays one contact ``<name>`` (``model.contacts.Contact.spans``).
 
 Every value is a constant (a number or an expression of the parameters).  Refused,
 one line naming the place: a negative stiffness, damping or friction, a stiffness
-missing, an exponent below 1, a friction velocity or a radius that is not positive,
+missing, an exponent below 1, a friction velocity, a radius or a half-extent that is
+not positive, a capsule whose ends coincide, a key its shape does not take,
 a zero normal, a body that does not exist (or ``ground``), two contacts of one name, a
-sphere against one on its own body or with both ``against`` and ``ground``,
-and the rigid model's keys (``model: rigid``, ``restitution``, checked to lie in
-[0, 1] first): the rigid model is not implemented.
+sphere against one on its own body or with both ``against`` and ``ground``, a
+restitution outside [0, 1], a key of the other contact model (``MODEL_KEYS``: the
+rigid model takes only ``friction`` and ``restitution``, default 0) and friction on a
+rigid sphere pair.
 """
 from __future__ import annotations
 
 import difflib
+import itertools
 
 import sympy as sp
 
@@ -35,10 +50,17 @@ from .cursor import Cursor
 
 #: the law's keys, with their units; given in the section (every contact) or per contact
 LAW_KEYS = {"stiffness": "N/m^exponent", "damping": "s/m", "exponent": "",
-            "friction": "", "friction_velocity": "m/s"}
-SECTION_KEYS = ("model", "ground", "restitution", *LAW_KEYS, "geometry")
-GEOMETRY_KEYS = ("name", "body", "point", "radius", "ground", "against", "restitution",
-                 *LAW_KEYS)
+            "friction": "", "friction_velocity": "m/s", "restitution": ""}
+#: the keys each contact model takes (the others' are refused)
+MODEL_KEYS = {"compliant": ("stiffness", "damping", "exponent", "friction",
+                            "friction_velocity"),
+              "rigid": ("friction", "restitution")}
+SECTION_KEYS = ("model", "ground", *LAW_KEYS, "geometry")
+#: the geometries' shapes -> the keys that place and size them (the first ones required)
+SHAPES = {"point": ((), ("point",)), "sphere": (("radius",), ("point",)),
+          "capsule": (("radius", "from", "to"), ()), "box": (("size",), ("point", "rpy"))}
+GEOMETRY_KEYS = ("name", "body", "shape", "point", "radius", "from", "to", "size", "rpy",
+                 "ground", "against", *LAW_KEYS)
 
 
 class _Contacts:
@@ -47,13 +69,7 @@ class _Contacts:
     def contacts(self, cursor: Cursor, bodies: tuple[Body, ...]) -> Contacts:
         """The section (module docstring)."""
         fields = cursor.mapping(SECTION_KEYS, required=("geometry",))
-        model = fields["model"].choice(("compliant", "rigid")) if "model" in fields else (
-            "compliant")
-        self._restitution(fields.get("restitution"))
-        if model not in CONTACT_MODELS:
-            raise fields["model"].error("the rigid contact model (impacts with restitution, "
-                                        "unilateral constraints) is not implemented yet; use "
-                                        "model: compliant")
+        model = fields["model"].choice(CONTACT_MODELS) if "model" in fields else "compliant"
         ground = self._ground(fields.get("ground"))
         law = {key: fields[key] for key in LAW_KEYS if key in fields}
         names = {b.name for b in bodies}
@@ -67,13 +83,7 @@ class _Contacts:
                     f"contact name {name!r} is already used by geometry[{seen[name]}]; every "
                     "contact needs its own name (it names the output columns)")
             seen[name] = k
-            self._restitution(geometry.get("restitution"))
             body = self._contact_body(geometry["body"], names)
-            radius = sp.Integer(0)
-            if "radius" in geometry:
-                radius = self.constant(geometry["radius"])
-                self.positive(geometry["radius"], radius, "the sphere's radius, m; a point "
-                              "contact has no radius")
             local = self._ground(geometry["ground"]) if "ground" in geometry else ground
             partner = None
             if "against" in geometry:
@@ -81,25 +91,75 @@ class _Contacts:
                     raise geometry["ground"].error("a contact is against a ground plane or "
                                                    "against another body's sphere, not both")
                 partner, local = self._partner(geometry["against"], names, body), None
-            items.append(Contact(name, body, self.constant_vector(geometry.get("point")),
-                                 radius, local, self._law({**law, **{
-                                     key: geometry[key] for key in LAW_KEYS if key in geometry
-                                 }}, item), partner))
+            given = {**law, **{key: geometry[key] for key in LAW_KEYS if key in geometry}}
+            contact_law = self._law(given, item, model)
+            if (model == "rigid" and partner is not None and "friction" in given
+                    and self.check_numeric(given["friction"], contact_law.friction)):
+                raise given["friction"].error("the rigid model's sphere pairs are "
+                                              "frictionless: give this contact friction: 0")
+            for suffix, point, radius, spans in self._parts(geometry, item, partner is not None):
+                if spans and model != "compliant":
+                    raise geometry["shape"].error("a capsule or a box against a sphere is the "
+                                                  "compliant model's; the rigid model's pairs "
+                                                  "are two spheres")
+                part = name + suffix
+                if suffix and part in seen:
+                    raise geometry.get("name", item).error(
+                        f"contact name {part!r} is already used by geometry[{seen[part]}]; "
+                        "every contact needs its own name (it names the output columns; a "
+                        "capsule's ends and a box's corners are <name>_1, <name>_2, ...)")
+                seen[part] = k
+                items.append(Contact(part, body, point, radius, local, contact_law, partner,
+                                     spans))
         if not items:
             raise fields["geometry"].error("expected at least one contact, e.g. "
                                            "- {body: ball, radius: 0.1}")
         return Contacts(model, tuple(items))
 
-    def _restitution(self, cursor: Cursor | None) -> None:
-        """A restitution is the rigid model's: checked to lie in [0, 1], then refused."""
-        if cursor is None:
-            return
-        value = self.check_numeric(cursor, self.constant(cursor))
-        if not 0 <= value <= 1:
-            raise cursor.error(f"a coefficient of restitution lies in [0, 1], got {value:g}")
-        raise cursor.error("restitution belongs to the rigid contact model, which is not "
-                           "implemented yet; the compliant model loses energy through its "
-                           "damping")
+    def _parts(self, geometry: dict[str, Cursor], item: Cursor, against: bool) -> list:
+        """The geometry's contacts as (name suffix, centre, radius, spans) (module
+        docstring): one for a point or a sphere, and for a capsule or a box against a
+        sphere; a capsule's two end spheres or a box's eight corners against a ground."""
+        given = geometry["shape"].choice(tuple(SHAPES)) if "shape" in geometry else None
+        shape = given or ("sphere" if "radius" in geometry else "point")
+        required, optional = SHAPES[shape]
+        for key in ("point", "radius", "from", "to", "size", "rpy"):
+            if key in geometry and key not in required + optional:
+                owners = [s for s, keys in SHAPES.items() if key in keys[0] + keys[1]]
+                raise geometry[key].error(f"a {shape} takes no {key} ({key} is for shape: "
+                                          f"{', '.join(owners)})")
+        for key in required:
+            if key not in geometry:
+                raise geometry.get("shape", item).error(f"a {shape} needs {key} ("
+                                                        f"{', '.join(required)})")
+        radius = sp.Integer(0)
+        if "radius" in geometry:
+            radius = self.constant(geometry["radius"])
+            self.positive(geometry["radius"], radius, f"the {shape}'s radius, m")
+        if shape in ("point", "sphere"):
+            return [("", self.constant_vector(geometry.get("point")), radius, ())]
+        if shape == "capsule":
+            start, end = (self.constant_vector(geometry[key]) for key in ("from", "to"))
+            half = tuple((b - a) / 2 for a, b in zip(start, end))
+            if not any(self.check_numeric(geometry["to"], x) for x in half):
+                raise geometry["to"].error("a capsule's ends must differ (equal ends: give a "
+                                           "sphere)")
+            if against:
+                return [("", tuple(a + h for a, h in zip(start, half)), radius, (half,))]
+            return [("_1", start, radius, ()), ("_2", end, radius, ())]
+        size = self.constant_vector(geometry["size"])
+        for k, extent in enumerate(size):
+            self.positive(geometry["size"].child(k, geometry["size"].value[k]), extent,
+                          "a half-extent of the box, m")
+        roll, pitch, yaw = self.constant_vector(geometry.get("rpy"))
+        R = sp.rot_ccw_axis3(yaw) * sp.rot_ccw_axis2(pitch) * sp.rot_ccw_axis1(roll)
+        spans = tuple(tuple(size[k] * R[j, k] for j in range(3)) for k in range(3))
+        centre = self.constant_vector(geometry.get("point"))
+        if against:
+            return [("", centre, radius, spans)]
+        return [(f"_{j + 1}", tuple(c + sum(s * e[i] for s, e in zip(signs, spans))
+                                    for i, c in enumerate(centre)), radius, ())
+                for j, signs in enumerate(itertools.product((-1, 1), repeat=3))]
 
     def _ground(self, cursor: Cursor | None) -> Ground:
         """``{normal: [x, y, z], height: h}``: the plane n . x = h, n made unit (default
@@ -144,18 +204,29 @@ class _Contacts:
                                f"{', '.join(sorted(names))}")
         return body
 
-    def _law(self, given: dict[str, Cursor], item: Cursor) -> ContactLaw:
-        """The compliant law from the section's keys overridden by the contact's."""
-        if "stiffness" not in given:
+    def _law(self, given: dict[str, Cursor], item: Cursor, model: str) -> ContactLaw:
+        """The law of ``model`` from the section's keys overridden by the contact's: the
+        compliant one's (stiffness required) or the rigid one's (friction, restitution
+        in [0, 1], default 0: a plastic impact); the other model's keys are refused."""
+        if model == "compliant" and "stiffness" not in given:
             raise item.error("missing stiffness (N/m^exponent; give it in the contacts "
                              "section for every contact, or per contact)")
-        values: dict[str, sp.Expr] = {"damping": sp.Integer(0), "friction": sp.Integer(0),
+        values: dict[str, sp.Expr] = {"stiffness": sp.Integer(0), "damping": sp.Integer(0),
+                                      "friction": sp.Integer(0), "restitution": sp.Integer(0),
                                       "exponent": sp.Float(DEFAULT_EXPONENT),
                                       "friction_velocity": sp.Float(DEFAULT_FRICTION_VELOCITY)}
         for key, cursor in given.items():
             expr = self.constant(cursor)
             value = self.check_numeric(cursor, expr)
             unit = f", {LAW_KEYS[key]}" if LAW_KEYS[key] else ""
+            if key == "restitution" and not 0 <= value <= 1:
+                raise cursor.error(f"a coefficient of restitution lies in [0, 1], got {value:g}")
+            if key not in MODEL_KEYS[model]:
+                raise cursor.error(
+                    "restitution belongs to the rigid contact model (model: rigid); the "
+                    "compliant model loses energy through its damping" if key == "restitution"
+                    else f"the rigid contact model has no {key}: contact is a constraint "
+                    "there (the compliant model takes it)")
             if key == "exponent" and value < 1:
                 raise cursor.error(f"must be 1 or more (1: linear spring, 1.5: Hertz), got "
                                    f"{value:g}")

@@ -42,12 +42,28 @@ Free joints import as anadyn's floating joints (welded by ``fix_base`` on a body
 of the world body), ball joints as spherical ones, with MuJoCo's qpos and qvel as
 their coordinates and speeds (``_Importer.several_joint``).
 
-Refused, one line each: forces and actuators on ball and free joints, tendons, equality constraints, composites, plugins, mocap bodies, gravcomp,
-springdamper, mesh geoms (and shellinertia) without an <inertial>, other
-actuators.  Ignored: sites, cameras, lights, assets,
-sensors, contacts, keyframes, visuals.
+<equality> connect and weld become loops, exact (MuJoCo's are soft), with the
+dependent coordinates chosen by a pivoted QR at qpos0 (``equality``; the importer's
+part: ``loops``).
+
+Refused, one line each: forces and actuators on ball and free joints, tendons,
+other equalities (joint, tendon, flex, inactive ones, any with ball or free
+joints), composites, plugins, mocap bodies, gravcomp, springdamper, mesh geoms
+(and shellinertia) without an <inertial>, other actuators.  With ``contacts``
+(--contacts) the sphere, capsule and box geoms that can touch a plane of the
+world become compliant contacts against it (``contact``: the law; ``geoms``: which
+geoms).  Actuators: ``actuators``.
+Ignored: sites (but as an equality's ends), cameras, lights, assets, sensors,
+<contact> pairs and excludes, keyframes, visuals.
 """
-from .importer import JOINTS, import_file
 from .source import MAX_BYTES, MAX_INCLUDES, is_mjcf
 
-__all__ = ["JOINTS", "MAX_BYTES", "MAX_INCLUDES", "import_file", "is_mjcf"]
+__all__ = ["MAX_BYTES", "MAX_INCLUDES", "import_file", "is_mjcf"]
+
+
+def import_file(*args, **kwargs):
+    """``importer.import_file``: the importer is read only when an MJCF file is (a run
+    of a URDF or YAML robot that merely asks whether a file is MJCF does not need it)."""
+    from .importer import import_file as run
+
+    return run(*args, **kwargs)

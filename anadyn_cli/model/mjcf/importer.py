@@ -18,7 +18,10 @@ from ..robottext import SMALLEST, Numbers, _angle, _format, _Names, render
 from ..urdf.frames import _snap, compose, matrix_rpy
 from ..urdf.importer import Imported
 from ..urdf.inertia import MassProperties, combine, inertia_problem
-from . import frames, inertia, source
+from . import equality, frames, inertia, source
+from .actuators import Actuators
+from .geoms import GEOM_TYPES, ContactGeoms
+from .loops import Loops
 from .source import _Reader
 
 #: MJCF joint types anadyn represents -> its joint type word (``model.joints``)
@@ -27,11 +30,10 @@ JOINTS = {"hinge": Revolute.word, "slide": Prismatic.word}
 SEVERAL = ("ball", "free")
 #: elements inside a <body> that carry no dynamics here (drawn or sensed only)
 IGNORED_IN_BODY = ("site", "camera", "light")
-#: top-level elements that carry no rigid-body dynamics (contact is the contact issue's)
+#: top-level elements that carry no rigid-body dynamics (<contact>'s pairs and excludes
+#: are not read: contact geoms are, with ``contacts``)
 IGNORED_TOP = ("compiler", "size", "visual", "statistic", "asset", "default", "sensor",
                "keyframe", "custom", "contact", "extension")
-GEOM_TYPES = ("plane", "hfield", "sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh",
-              "sdf")
 
 
 @dataclass
@@ -46,9 +48,11 @@ class _Body:
 
 
 def import_file(path: str | Path, fix_base: bool = False, inertia: str = "refuse",
-                lock=(), floating_base: bool = False) -> Imported:
+                lock=(), floating_base: bool = False, contacts: bool = False) -> Imported:
     """Read and import the MJCF model at ``path``; ``fix_base`` welds a ``free`` joint
-    of a body on the world body to the world where the body is placed.  ``inertia``,
+    of a body on the world body to the world where the body is placed; ``contacts``
+    imports the sphere, capsule and box geoms that can touch a plane of the world as
+    compliant contacts against it (``contact``; without it none).  ``inertia``,
     ``lock`` and ``floating_base`` (the URDF reading options) must keep their
     defaults: an MJCF model is imported whole (a free body has its free joint), and
     an inertia no rigid body has is refused."""
@@ -59,15 +63,19 @@ def import_file(path: str | Path, fix_base: bool = False, inertia: str = "refuse
         raise ModelError(f"{flag}: this option says how a URDF file is read; MJCF models are "
                          "imported whole, their impossible inertias refused", source=shown)
     root, shown = source.load(Path(path))
-    return _Importer(shown, root, fix_base).run(root)
+    return _Importer(shown, root, fix_base, contacts).run(root)
 
 
-class _Importer(Numbers, _Reader):
+class _Importer(Numbers, _Reader, ContactGeoms, Loops, Actuators):
     """One import; ``bodies`` are anadyn's bodies in tree order."""
 
-    def __init__(self, source_name: str, root, fix_base: bool):
+    def __init__(self, source_name: str, root, fix_base: bool, contacts: bool = False):
         super().__init__(source_name, root)
         self.fix_base = fix_base
+        #: with ``contacts``: the world's planes and the moving bodies' geoms
+        #: (``collect``), each (anadyn body, geom, its class, pose in that body's axes)
+        self.touching: list[tuple] | None = [] if contacts else None
+        self.planes: list[tuple] = []
         self.names = _Names()
         self.bodies: list[_Body] = []
         self.coordinates: dict[str, tuple[str, float]] = {}   # MJCF joint -> (q, initial)
@@ -79,11 +87,15 @@ class _Importer(Numbers, _Reader):
         self.static_mass: list[MassProperties] = []
         self.warnings: list[str] = []
         self.disabled: set[str] = set()                        # <flag ...="disable">
+        #: MJCF body / site -> (anadyn body, its frame in that body's axes), for equalities
+        self.placed: dict[str, tuple] = {equality.WORLD: (GROUND, (np.eye(3), np.zeros(3)))}
+        self.sites: dict[str, tuple] = {}
+        self.equalities: list[equality.Equality] = []
 
     # -- the model ----------------------------------------------------------------------
     def run(self, root) -> Imported:
         for element in root:
-            if element.tag in ("tendon", "equality", "deformable") and len(element):
+            if element.tag in ("tendon", "deformable") and len(element):
                 raise self.error(f"<{element.tag}>", f"<{element[0].tag}> "
                                  f"{element[0].get('name') or ''}".rstrip() + ": anadyn "
                                  f"imports no {element.tag} elements (the rigid-body tree, "
@@ -96,11 +108,15 @@ class _Importer(Numbers, _Reader):
         world = root.find("worldbody")
         if world is None:
             raise self.error(None, "no <worldbody>")
-        for child, frame, cls in self.members(world, "<worldbody>", "main"):
+        members = list(self.members(world, "<worldbody>", "main"))
+        self.collect(None, GROUND, (np.eye(3), np.zeros(3)), members)
+        for child, frame, cls in members:
             if child.tag == "body":
                 self.body(child, GROUND, frame or (np.eye(3), np.zeros(3)), cls)
         if not self.bodies:
             raise self.error("<worldbody>", "nothing moves: no body has a hinge or slide joint")
+        for section in root.findall("equality"):
+            self.equalities += equality.read(self, section, self.placed, self.sites)
         scale = self.total_mass_scale()
         actuators, laws, gains = self.actuators(root)
         return self.emit(root, gravity, scale, actuators, laws, gains)
@@ -175,6 +191,8 @@ class _Importer(Numbers, _Reader):
         for k, (child, frame, inner) in enumerate(joints):
             owner, pending = self.joint(child, name, owner, pending, inner,
                                         k == len(joints) - 1, frame)
+        self.place(name, owner, pending, members)
+        self.collect(name, owner, pending, members)
         if owner == GROUND:
             self.welded.append(name)
             if self.compiler.settotalmass > 0:
@@ -402,6 +420,21 @@ class _Importer(Numbers, _Reader):
             raise self.error(where, f"a {kind} geom: anadyn computes the inertia of sphere, "
                                     "capsule, cylinder, box and ellipsoid geoms; give the body "
                                     "an <inertial> (inertiafromgeom=\"auto\")")
+        size, R, centre = self.shape(element, kind, where, cls)
+        given = self.get(element, "mass", cls)
+        if given is not None:
+            mass = self.number(element, "mass", where, cls=cls)
+        else:
+            mass = self.number(element, "density", where, "1000", cls) * inertia.volume(kind, size)
+        if mass < 0:
+            raise self.error(where, "the mass cannot be negative")
+        moments = inertia.moments(kind, size, mass)
+        return MassProperties(mass, centre, R @ np.diag(moments) @ R.T)
+
+    def shape(self, element, kind: str, where: str, cls: str):
+        """(sizes, R, centre) of a sphere, capsule, cylinder, box or ellipsoid geom in its
+        body's (or frame's) axes, as MuJoCo's compiler reads them (fromto: the axis z
+        from one end to the other, the last size half its length)."""
         fromto = self.get(element, "fromto", cls)
         count = inertia.SIZES[kind]
         size = self.numbers(element, "size", (1 if fromto and count > 1 else count, 3),
@@ -426,15 +459,7 @@ class _Importer(Numbers, _Reader):
         if any(s <= 0 for s in size):
             raise self.error(where, f'size="{self.get(element, "size", cls)}": sizes must be '
                                     "positive")
-        given = self.get(element, "mass", cls)
-        if given is not None:
-            mass = self.number(element, "mass", where, cls=cls)
-        else:
-            mass = self.number(element, "density", where, "1000", cls) * inertia.volume(kind, size)
-        if mass < 0:
-            raise self.error(where, "the mass cannot be negative")
-        moments = inertia.moments(kind, size, mass)
-        return MassProperties(mass, centre, R @ np.diag(moments) @ R.T)
+        return size, R, centre
 
     def total_mass_scale(self) -> float:
         """MuJoCo's settotalmass: every body's mass and inertia scaled by this."""
@@ -447,77 +472,7 @@ class _Importer(Numbers, _Reader):
             raise self.error("<compiler>", "settotalmass: the model has no mass to scale")
         return wanted / total
 
-    # -- actuators ---------------------------------------------------------------------------
-    def actuators(self, root):
-        """{actuator: {joint: body, drive: {gear}}}, {actuator: law} and {gain: value}, as
-        MuJoCo computes an actuator's force: the control u (a gain, 0) clamped to
-        ctrlrange, the force (motor: u; position servo: kp (u - gear q) - kv gear dq;
-        velocity servo: kv (u - gear dq)) clamped to forcerange is the law (MuJoCo's
-        actuator_force); its gear is the drive's (the force on the joint: gear times it)."""
-        owners = {b.mjcf_joint: b.name for b in self.bodies}
-        actuators, laws, gains = {}, {}, {}
-        for section in root.findall("actuator"):
-            for k, element in enumerate(section):
-                name = element.get("name") or f"{element.tag}{k + 1}"
-                where = f"actuator {name!r}"
-                if element.tag not in ("motor", "position", "velocity"):
-                    raise self.error(where, f"<{element.tag}>: anadyn imports motor, position "
-                                            "and velocity actuators")
-                joint = self.get(element, "joint")
-                if joint is None:
-                    raise self.error(where, "anadyn imports actuators on a joint (joint=\"...\"),"
-                                            " not on tendons, sites or bodies")
-                if joint not in owners or joint in self.several:
-                    raise self.error(where, f'joint="{joint}": no hinge or slide joint of '
-                                            "this name (anadyn's actuators act along one "
-                                            "coordinate)")
-                gear = self.numbers(element, "gear", (1, 6), where, "1")[0]
-                actuator, control = self.identifier(name, "u_"), self.identifier(f"u_{name}", "u_")
-                actuators[actuator] = {"joint": owners[joint], **(     # the gear: a drive's
-                    {"drive": {"gear": self.value(gear)}} if gear != 1 else {})}
-                gains[control] = 0
-                force = self.force(element, self.clamped(element, "ctrl", control, where),
-                                   self.coordinates[joint][0], gear, where)
-                force = self.clamped(element, "force", force, where)
-                laws[actuator] = force
-        return actuators, laws, gains
-
-    def force(self, element, u: str, q: str, gear: float, where: str) -> str:
-        """The actuator's force (before forcerange) for the control text ``u``."""
-        if element.tag == "motor":
-            return u
-        for key in ("dampratio", "timeconst"):
-            if self.number(element, key, where, "0") != 0:
-                raise self.error(where, f"{key}: give kv (and kp) instead; anadyn imports "
-                                        "the gains as they are")
-        g = "" if gear == 1 else f"{_format(self.value(gear))}*"
-        kv = self.number(element, "kv", where, "0" if element.tag == "position" else "1")
-        if element.tag == "velocity":
-            return f"{_format(kv)}*({u} - {g}d{q})"
-        term = f"{_format(self.number(element, 'kp', where, '1'))}*({u} - {g}{q})"
-        return term + (f" - {_format(kv)}*{g}d{q}" if kv else "")
-
-    def clamped(self, element, kind: str, text: str, where: str) -> str:
-        """``text`` clamped to the actuator's ``kind``range (ctrl or force) when it is
-        limited (``kind``limited true, or auto with autolimits and a range given)."""
-        key = f"{kind}range"
-        limited = self.word(element, f"{kind}limited", ("true", "false", "auto"), where, "auto")
-        if not (limited == "true" or limited == "auto" and self.compiler.autolimits
-                and self.get(element, key) is not None):
-            return text
-        lower, upper = self.numbers(element, key, 2, where, "0 0")
-        if lower > upper:
-            raise self.error(where, f'{key}="{self.get(element, key)}": the lower end is above '
-                                    "the upper one")
-        return f"min(max({text}, {_format(self.value(lower))}), {_format(self.value(upper))})"
-
-    def identifier(self, name: str, prefix: str) -> str:
-        """``name`` made an identifier not yet taken by a coordinate, rate, actuator or gain."""
-        result = self.names.unique(self.names.clean(name, prefix),
-                                   lambda n: n not in self.names.taken)
-        self.names.taken.add(result)
-        return result
-
+    # -- contacts ----------------------------------------------------------------------------
     # -- the YAML --------------------------------------------------------------------------------
     def emit(self, root, gravity, scale, actuators, laws, gains) -> Imported:
         bodies, comments = [], []
@@ -565,6 +520,11 @@ class _Importer(Numbers, _Reader):
         if actuators:
             data["actuators"] = actuators
             data["controller"] = {"gains": gains, "laws": laws}
+        contacts = self.contacts(gravity, scale)
+        if contacts:
+            data["contacts"] = contacts
+        if self.equalities:
+            self.close_loops(data, actuators)
         if self.flushed:
             self.warnings.append(f"{self.source}: {self.flushed} number(s) below {SMALLEST:g} "
                                  "in size written as 0")

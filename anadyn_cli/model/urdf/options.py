@@ -20,17 +20,20 @@ class ReadingOptions:
     for impossible inertias (INERTIA_POLICIES); ``lock`` is ((joint, value), ...),
     the joints held at a value (a number, or its text: ``0.5``, ``pi/4``);
     ``floating_base`` frees the root link: a floating joint between the world and
-    it (Pinocchio's ``JointModelFreeFlyer`` root), where a URDF fixes it."""
+    it (Pinocchio's ``JointModelFreeFlyer`` root), where a URDF fixes it;
+    ``contacts`` (MJCF only) imports the contact geoms as contacts (``mjcf.contact``)."""
     fix_base: bool = False
     inertia: str = "refuse"
     lock: tuple[tuple[str, float | str], ...] = ()
     floating_base: bool = False
+    contacts: bool = False
 
     def flags(self) -> str:
         """The options as command-line flags ('' for the defaults)."""
         words = (["--fix-base"] if self.fix_base else []) + (
             ["--floating-base"] if self.floating_base else []) + (
-            [f"--inertia {self.inertia}"] if self.inertia != "refuse" else [])
+            [f"--inertia {self.inertia}"] if self.inertia != "refuse" else []) + (
+            ["--contacts"] if self.contacts else [])
         return " ".join(words + [f"--lock {name}={value}" for name, value in self.lock])
 
 

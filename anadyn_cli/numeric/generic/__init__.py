@@ -4,7 +4,9 @@ robot as numbers (``tables``), so that a cold run starts at once.
 ``kernel.c`` (read with importlib.resources) runs the articulated-body
 algorithm (forward dynamics, O(n)), the recursive Newton-Euler algorithm
 (inverse dynamics M ddq - F, with the joint springs, dampers and friction) and
-the composite-rigid-body algorithm (M) over the tables of ``tables.pack``.  It
+the composite-rigid-body algorithm (M) over the tables of ``tables.pack``, for
+revolute, prismatic, fixed and spherical joints (so floating bases: the state
+x = [q, u], a quaternion's rates dq = 1/2 q (x) (0, w) in the kernel).  It
 is compiled like the robot-specific code (``native.load``, the cache's
 ``-native`` folder, hashed, owner-only), once: its C text does not depend on
 the robot.
@@ -32,6 +34,7 @@ from importlib import resources
 
 import numpy as np
 
+from .differences import central_differences
 from .tables import Tables, pack
 from ..model import NumericModel, PrescribedMotion, run_generated
 
@@ -76,11 +79,16 @@ class GenericModel(NumericModel):
     ``full()`` builds the generated Python for what the kernel does not do."""
 
     def __init__(self, info, pl, tables: Tables, module, small_source: str, full):
+        from ..recursive.emit import quaternions
+
         namespace = run_generated(small_source)
         self.info, self.source = info, small_source
         self.evaluator, self.formulation = "recursive", None
         self.coordinates, self.effort_names = tuple(pl.coordinates), tuple(pl.efforts)
-        self.n = pl.n
+        self.speeds, self.quaternions = tuple(pl.speeds), quaternions(pl)
+        self.n, self.nq = pl.n, pl.nq                 # x = [q (nq), u (n)]
+        self._rates = namespace.get("rates")          # dq = W(q) u, with a spherical joint
+        self.contact_names, self.rigid_contacts = (), None     # ``pack`` refuses contacts
         self._kernel, self._make_full, self._full = module, full, None
         self._ints, self._doubles = tables.ints, tables.doubles
         self._laws = namespace["laws"] if self.effort_names and not namespace["NO_LAWS"] else None
@@ -116,56 +124,51 @@ class GenericModel(NumericModel):
 
     def rhs(self, t: float, x: np.ndarray) -> np.ndarray:
         x = np.ascontiguousarray(x, dtype=float)
-        out = np.empty(2 * self.n)
+        out = np.empty(self.nq + self.n)
         _call(self._kernel.rhs(self._ints, self._doubles, x, self._joint_efforts(t, x), out))
         return out
 
     def accelerations(self, t: float, x) -> list[float]:
-        return self.rhs(t, np.asarray(x, dtype=float))[self.n:].tolist()
+        return self.rhs(t, np.asarray(x, dtype=float))[self.nq:].tolist()
 
     def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
-        """[[0, I], [M^-1 K]]: the kernel's (K by central differences of the
-        Newton-Euler recursion at fixed efforts), plus M^-1 B d(tau)/dx with the
-        laws' derivatives by central differences (step ~eps^(1/3))."""
-        n, n2 = self.n, 2 * self.n
+        """[[R], [M^-1 K]]: the kernel's (R = d(W(q) u)/dx, [0, I] without a
+        spherical joint; K by central differences of the Newton-Euler recursion at
+        fixed efforts), plus M^-1 B d(tau)/dx with the laws' derivatives by
+        ``central_differences``."""
+        n, nq, n2 = self.n, self.nq, self.nq + self.n
         x = np.ascontiguousarray(x, dtype=float)
         J = np.empty((n2, n2))
         _call(self._kernel.jac(self._ints, self._doubles, x, self._joint_efforts(t, x), J))
         if self._laws is not None:
-            dtau = np.empty((len(self.effort_names), n2))
-            for k in range(n2):
-                up, down = x.copy(), x.copy()
-                up[k] += 6e-6 * max(1.0, abs(x[k]))
-                down[k] -= 6e-6 * max(1.0, abs(x[k]))
-                dtau[:, k] = ((np.asarray(self._laws(t, *up.tolist()), dtype=float)
-                               - np.asarray(self._laws(t, *down.tolist()), dtype=float))
-                              / (up[k] - down[k]))
+            dtau = central_differences(lambda y: self._laws(t, *y.tolist()), x)
             M = np.empty((n, n))
-            _call(self._kernel.mass(self._ints, self._doubles, np.ascontiguousarray(x[:n]), M))
-            J[n:] += np.linalg.solve(M, self._B @ dtau)
+            _call(self._kernel.mass(self._ints, self._doubles, np.ascontiguousarray(x[:nq]), M))
+            J[nq:] += np.linalg.solve(M, self._B @ dtau)
         return J
 
     def driven_accelerations(self, t: float, x: np.ndarray, efforts) -> np.ndarray:
         x = np.ascontiguousarray(x, dtype=float)
-        out = np.empty(2 * self.n)
+        out = np.empty(self.nq + self.n)
         _call(self._kernel.rhs(self._ints, self._doubles, x,
                                self._select @ np.asarray(efforts, dtype=float), out))
-        return out[self.n:]
+        return out[self.nq:]
 
     def actuation(self, t, q, dq) -> np.ndarray:
         return self._B
 
     def _inverse_points(self, q, dq, ddq) -> tuple[np.ndarray, tuple]:
-        """M ddq - F (no actuators) over broadcast arrays (n, ...) -> (..., n)."""
-        n = self.n
+        """M ddq - F (no actuators) over broadcast arrays q (nq, ...), dq and ddq
+        (n, ...) -> (..., n)."""
+        n, ns = self.n, self.nq + self.n
         arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (*q, *dq, *ddq)))
         shape = arrays[0].shape
         columns = np.stack([a.reshape(-1) for a in arrays], axis=1)
         count = len(columns)
         out = np.empty((count, n))
         _call(self._kernel.inverse(self._ints, self._doubles, count,
-                                   np.ascontiguousarray(columns[:, :2 * n]),
-                                   np.ascontiguousarray(columns[:, 2 * n:]), out))
+                                   np.ascontiguousarray(columns[:, :ns]),
+                                   np.ascontiguousarray(columns[:, ns:]), out))
         return out, shape
 
     def demand(self, t, q, dq, ddq) -> tuple[np.ndarray, np.ndarray]:
@@ -186,12 +189,13 @@ class GenericModel(NumericModel):
 
 
 def small_source(pl, robot) -> str:
-    """The laws (scalar) and efforts (vectorized) of ``pl``, and the prescribed
-    motion: the generated Python a GenericModel needs."""
+    """The laws (scalar) and efforts (vectorized) of ``pl``, with a spherical joint
+    the coordinates' rates dq = W(q) u (vectorized), and the prescribed motion: the
+    generated Python a GenericModel needs."""
     from .. import trajectory
     from ..recursive import PY_HEADER, _python_function
     from ..recursive.emit import VEC_HEADER
-    from ..recursive.trace import Traced, trace_efforts
+    from ..recursive.trace import Traced, trace_efforts, trace_rates
 
     efforts = trace_efforts(pl)
     laws = Traced("laws", efforts.args, efforts.statements, efforts.outputs, efforts.counts)
@@ -199,9 +203,10 @@ def small_source(pl, robot) -> str:
     for name in ("sin", "cos", "sqrt", "tanh"):
         vector = vector.replace(f"_{name}(", f"_v{name}(")
     no_laws = all(x.is_zero() for x in efforts.outputs["tau"])
+    rates = (_python_function(trace_rates(pl), True, "dq = W(q) u.") if pl.spherical else [])
     return "\n".join([PY_HEADER, VEC_HEADER,
                       *_python_function(laws, False, "Efforts under the control laws."),
-                      vector, f"NO_LAWS = {no_laws}", ""]) + trajectory.motion_source(robot)
+                      vector, *rates, f"NO_LAWS = {no_laws}", ""]) + trajectory.motion_source(robot)
 
 
 def first_run(robot, pl, info, full, own_code, entry: str,

@@ -2,8 +2,11 @@
    installation (not per robot); see anadyn_cli/numeric/generic/__init__.py.
 
    Tables (built by generic.tables.pack):
-     ints  I = [NB, N, NM, MODE, then per body: parent (-1: the world), kind
-               (0 fixed, 1 revolute, 2 prismatic), joint (moving index, -1)]
+     ints  I = [NB, N, NM, MODE, NQ, then per body: parent (-1: the world), kind
+               (0 fixed, 1 revolute, 2 prismatic, 3 spherical), joint (its first
+               moving index, -1; a spherical joint has three, its angular velocity's
+               x, y, z in body axes), coordinate and speed (a spherical joint's
+               quaternion (qw, qx, qy, qz) in q and angular velocity in u, else -1)]
      doubles D = [gravity (3), per body BODY doubles: C^T (9, row-major: parent
                axes -> joint axes), origin (3), axis (3), mass, h = m c (3),
                I_O (9, about the origin); per moving joint PASSIVE doubles:
@@ -11,6 +14,12 @@
                map theta = A q + c: A (NM x N), c (NM); with MODE 1 A^-1 (N x NM)]
    MODE: 0 A = 1 (theta = q + c), 1 A square and invertible, 2 otherwise (the
    accelerations by CRBA and a dense Cholesky factorization of M = A^T H A).
+
+   State x = [q (NQ), u (N)]: u = dq for every coordinate but a quaternion's; the
+   NP = N - 3 (NQ - N) first coordinates have the first NP speeds as rates, each
+   spherical joint's quaternion dq = 1/2 q (x) (0, w).  A spherical joint's rows of
+   A are unit rows on its speeds (dtheta = w), its theta zero: its quaternion turns
+   it, R(q) written for any non-zero q (divided by |q|^2).
 
    Spatial vectors (angular, linear) at the body origin in body axes; gravity as
    the base's acceleration a_0 = (0, -g).  All functions return 0, or 1 when M is
@@ -21,10 +30,13 @@
 
 #define BODY 28
 #define PASSIVE 5
+#define HEAD 5
+#define STRIDE 5
+#define SPHERICAL 3
 
 typedef struct {
-    int nb, n, nm, mode;
-    const int *parent, *kind, *joint;      /* stride 3 from ints + 4 */
+    int nb, n, nm, mode, nq, np;
+    const int *bodies;                     /* STRIDE per body, from ints + HEAD */
     const double *g, *body, *passive, *A, *c, *Ainv;
 } Model;
 
@@ -33,8 +45,9 @@ typedef struct {                           /* per body, at one q */
 } Frame;
 
 static void model_of(const int *I, const double *D, Model *m) {
-    m->nb = I[0]; m->n = I[1]; m->nm = I[2]; m->mode = I[3];
-    m->parent = I + 4; m->kind = I + 5; m->joint = I + 6;
+    m->nb = I[0]; m->n = I[1]; m->nm = I[2]; m->mode = I[3]; m->nq = I[4];
+    m->np = m->n - 3 * (m->nq - m->n);
+    m->bodies = I + HEAD;
     m->g = D;
     m->body = D + 3;
     m->passive = m->body + BODY * m->nb;
@@ -43,16 +56,21 @@ static void model_of(const int *I, const double *D, Model *m) {
     m->Ainv = m->c + m->nm;
 }
 
-#define PARENT(m, i) ((m)->parent[3 * (i)])
-#define KIND(m, i) ((m)->kind[3 * (i)])
-#define JOINT(m, i) ((m)->joint[3 * (i)])
+#define PARENT(m, i) ((m)->bodies[STRIDE * (i)])
+#define KIND(m, i) ((m)->bodies[STRIDE * (i) + 1])
+#define JOINT(m, i) ((m)->bodies[STRIDE * (i) + 2])
+#define COORDINATE(m, i) ((m)->bodies[STRIDE * (i) + 3])
+#define SPEED(m, i) ((m)->bodies[STRIDE * (i) + 4])
 
-static size_t ints_needed(int nb) { return 4 + 3 * (size_t)nb; }
+static size_t ints_needed(int nb) { return HEAD + STRIDE * (size_t)nb; }
 
 static size_t doubles_needed(int nb, int n, int nm, int mode) {
     return 3 + (size_t)BODY * nb + (size_t)PASSIVE * nm + (size_t)nm * n + nm
            + (mode == 1 ? (size_t)n * nm : 0);
 }
+
+/* the number of speeds of a joint kind */
+static int speeds_of(int kind) { return kind == SPHERICAL ? 3 : kind > 0; }
 
 /* theta = A q + c, dtheta = A dq */
 static void joint_map(const Model *m, const double *q, double *out, int offset) {
@@ -67,32 +85,96 @@ static void joint_map(const Model *m, const double *q, double *out, int offset) 
     }
 }
 
-/* E = Rot(a, theta)^T C^T (revolute) or C^T; r = origin (+ C a theta, prismatic),
-   for every body (only: those marked) */
-static void frames(const Model *m, const double *theta, Frame *F, const int *only) {
+/* theta of the coordinates q (NQ): A q + c, a spherical joint's zero */
+static void positions(const Model *m, const double *q, double *th) {
+    joint_map(m, q, th, 1);
+    for (int i = 0; i < m->nb; i++)
+        if (KIND(m, i) == SPHERICAL) {
+            int j = JOINT(m, i);
+            th[j] = th[j + 1] = th[j + 2] = 0.0;
+        }
+}
+
+/* dq = W(q) u: the speeds for the first NP coordinates, 1/2 q (x) (0, w) for each
+   spherical joint's quaternion (x = [q, u]) */
+static void rates(const Model *m, const double *x, double *dq) {
+    const double *u = x + m->nq;
+    memcpy(dq, u, sizeof(double) * m->np);
+    for (int i = 0; i < m->nb; i++) {
+        if (KIND(m, i) != SPHERICAL) continue;
+        const double *p = x + COORDINATE(m, i), *s = u + SPEED(m, i);
+        double w = p[0], qx = p[1], qy = p[2], qz = p[3], a = s[0], b = s[1], c = s[2];
+        double *o = dq + COORDINATE(m, i);
+        o[0] = -(qx * a + qy * b + qz * c) * 0.5;
+        o[1] = (w * a + qy * c - qz * b) * 0.5;
+        o[2] = (w * b + qz * a - qx * c) * 0.5;
+        o[3] = (w * c + qx * b - qy * a) * 0.5;
+    }
+}
+
+/* the coordinates' rows of the state Jacobian J (NQ + N columns): d(W(q) u)/dx */
+static void rate_rows(const Model *m, const double *x, double *J) {
+    int nq = m->nq, ns = nq + m->n;
+    for (int k = 0; k < m->np; k++) J[k * ns + nq + k] = 1.0;
+    for (int i = 0; i < m->nb; i++) {
+        if (KIND(m, i) != SPHERICAL) continue;
+        int c = COORDINATE(m, i), s = nq + SPEED(m, i);
+        const double *p = x + c, *w = x + s;
+        const double dp[4][4] = {{0, -w[0], -w[1], -w[2]}, {w[0], 0, w[2], -w[1]},
+                                 {w[1], -w[2], 0, w[0]}, {w[2], w[1], -w[0], 0}};
+        const double dw[4][3] = {{-p[1], -p[2], -p[3]}, {p[0], -p[3], p[2]},
+                                 {p[3], p[0], -p[1]}, {-p[2], p[1], p[0]}};
+        for (int r = 0; r < 4; r++) {
+            for (int k = 0; k < 4; k++) J[(c + r) * ns + c + k] = 0.5 * dp[r][k];
+            for (int k = 0; k < 3; k++) J[(c + r) * ns + s + k] = 0.5 * dw[r][k];
+        }
+    }
+}
+
+/* E = Rot(a, theta)^T C^T (revolute), R(q)^T C^T (spherical, q its quaternion in
+   the coordinates q) or C^T; r = origin (+ C a theta, prismatic), for every body
+   (only: those marked) */
+static void frames(const Model *m, const double *q, const double *theta, Frame *F,
+                   const int *only) {
     for (int i = 0; i < m->nb; i++) {
         if (only && !only[i]) continue;
         const double *b = m->body + BODY * i, *CT = b, *o = b + 9, *a = b + 12;
         Frame *f = F + i;
-        memcpy(f->E, CT, sizeof(double) * 9);
+        double RT[9];
+        int turned = 1;
         memcpy(f->r, o, sizeof(double) * 3);
         if (KIND(m, i) == 1) {
-            double th = theta[JOINT(m, i)], cs = cos(th), sn = sin(th), RT[9];
+            double th = theta[JOINT(m, i)], cs = cos(th), sn = sin(th);
             for (int r = 0; r < 3; r++)
                 for (int k = 0; k < 3; k++)
                     RT[3 * r + k] = (r == k ? cs : 0.0) + (1.0 - cs) * a[r] * a[k];
             RT[1] += sn * a[2]; RT[2] -= sn * a[1];      /* - s [a]x */
             RT[3] -= sn * a[2]; RT[5] += sn * a[0];
             RT[6] += sn * a[1]; RT[7] -= sn * a[0];
+        } else if (KIND(m, i) == SPHERICAL) {            /* RT = (|p|^2 R(p))^T / |p|^2 */
+            const double *p = q + COORDINATE(m, i);
+            double w = p[0], x = p[1], y = p[2], z = p[3];
+            double s = 1.0 / (w * w + x * x + y * y + z * z);
+            RT[0] = (w * w + x * x - y * y - z * z) * s;
+            RT[4] = (w * w - x * x + y * y - z * z) * s;
+            RT[8] = (w * w - x * x - y * y + z * z) * s;
+            RT[3] = 2 * (x * y - w * z) * s; RT[1] = 2 * (x * y + w * z) * s;
+            RT[6] = 2 * (x * z + w * y) * s; RT[2] = 2 * (x * z - w * y) * s;
+            RT[7] = 2 * (y * z - w * x) * s; RT[5] = 2 * (y * z + w * x) * s;
+        } else {
+            turned = 0;
+            memcpy(f->E, CT, sizeof(double) * 9);
+            if (KIND(m, i) == 2) {
+                double th = theta[JOINT(m, i)];
+                for (int r = 0; r < 3; r++)          /* C a = (C^T)^T a */
+                    f->r[r] += th * (CT[r] * a[0] + CT[3 + r] * a[1] + CT[6 + r] * a[2]);
+            }
+        }
+        if (turned)
             for (int r = 0; r < 3; r++)
                 for (int k = 0; k < 3; k++)
                     f->E[3 * r + k] = RT[3 * r] * CT[k] + RT[3 * r + 1] * CT[3 + k]
                                       + RT[3 * r + 2] * CT[6 + k];
-        } else if (KIND(m, i) == 2) {
-            double th = theta[JOINT(m, i)];
-            for (int r = 0; r < 3; r++)          /* C a = (C^T)^T a */
-                f->r[r] += th * (CT[r] * a[0] + CT[3 + r] * a[1] + CT[6 + r] * a[2]);
-        }
     }
 }
 
@@ -170,12 +252,16 @@ static void mv6(const double *M, const double *v, double *o) {
     }
 }
 
-/* the motion subspace S of body i (6-vector; zero for a fixed joint) */
-static void subspace(const Model *m, int i, double *S) {
+/* the motion subspace of body i: its columns (6 doubles each) in S (room for 3),
+   their number returned (0 fixed, 1 revolute or prismatic, 3 spherical) */
+static int subspace(const Model *m, int i, double *S) {
     const double *a = m->body + BODY * i + 12;
-    memset(S, 0, sizeof(double) * 6);
-    if (KIND(m, i) == 1) memcpy(S, a, sizeof(double) * 3);
-    else if (KIND(m, i) == 2) memcpy(S + 3, a, sizeof(double) * 3);
+    int kind = KIND(m, i), d = speeds_of(kind);
+    memset(S, 0, sizeof(double) * 6 * d);
+    if (kind == 1) memcpy(S, a, sizeof(double) * 3);
+    else if (kind == 2) memcpy(S + 3, a, sizeof(double) * 3);
+    else if (kind == SPHERICAL) S[0] = S[7] = S[14] = 1.0;
+    return d;
 }
 
 static void mm3(const double *a, const double *b, double *o) {      /* o = a b */
@@ -250,9 +336,8 @@ static void forward_pass(const Model *m, const Frame *F, const double *dtheta,
                          const int *only) {
     for (int i = 0; i < m->nb; i++) {
         if (only && !only[i]) continue;
-        double S[6], t[6];
-        int p = PARENT(m, i), j = JOINT(m, i);
-        subspace(m, i, S);
+        double S[18], t[6];
+        int p = PARENT(m, i), j = JOINT(m, i), d = subspace(m, i, S);
         if (p < 0) {
             double w0[6] = {0, 0, 0, 0, 0, 0}, a0[6] = {0, 0, 0, -m->g[0], -m->g[1], -m->g[2]};
             motion_in(F + i, w0, v + 6 * i);
@@ -262,11 +347,14 @@ static void forward_pass(const Model *m, const Frame *F, const double *dtheta,
             if (a) motion_in(F + i, a + 6 * p, a + 6 * i);
         }
         if (j >= 0) {
-            double sd[6];
-            for (int k = 0; k < 6; k++) sd[k] = S[k] * dtheta[j];
+            double sd[6] = {0, 0, 0, 0, 0, 0};
+            for (int c = 0; c < d; c++)
+                for (int k = 0; k < 6; k++) sd[k] += S[6 * c + k] * dtheta[j + c];
             if (a) {
                 cross_motion(v + 6 * i, sd, t);          /* v_before x S dtheta */
-                for (int k = 0; k < 6; k++) a[6 * i + k] += t[k] + S[k] * ddtheta[j];
+                for (int k = 0; k < 6; k++) a[6 * i + k] += t[k];
+                for (int c = 0; c < d; c++)
+                    for (int k = 0; k < 6; k++) a[6 * i + k] += S[6 * c + k] * ddtheta[j + c];
             }
             for (int k = 0; k < 6; k++) v[6 * i + k] += sd[k];
         }
@@ -286,9 +374,9 @@ static void backward_pass(const Model *m, const Frame *F, double *f, double *tau
     for (int i = m->nb - 1; i >= 0; i--) {
         int p = PARENT(m, i), j = JOINT(m, i);
         if (j >= 0) {
-            double S[6];
-            subspace(m, i, S);
-            tau[j] = dot6(S, f + 6 * i);
+            double S[18];
+            int d = subspace(m, i, S);
+            for (int c = 0; c < d; c++) tau[j + c] = dot6(S + 6 * c, f + 6 * i);
         }
         if (p >= 0) {
             double t[6];
@@ -315,7 +403,7 @@ static void generalized(const Model *m, const Frame *F, double *f, const double 
     }
 }
 
-/* ID = A^T (tau_rigid(q, dq, ddq) - tau_passive) = M ddq - F */
+/* ID = A^T (tau_rigid(q, u, du) - tau_passive) = M du - F (q: NQ, dq, ddq: N) */
 static int inverse(const Model *m, const double *q, const double *dq, const double *ddq,
                    double *out) {
     int nb = m->nb, nm = m->nm;
@@ -324,10 +412,10 @@ static int inverse(const Model *m, const double *q, const double *dq, const doub
     if (!F || !w) { free(F); free(w); return 1; }
     double *v = w, *a = v + 6 * nb, *f = a + 6 * nb, *th = f + 6 * nb, *dth = th + nm,
            *ddth = dth + nm, *tau = ddth + nm, *pas = tau + nm;
-    joint_map(m, q, th, 1);
+    positions(m, q, th);
     joint_map(m, dq, dth, 0);
     joint_map(m, ddq, ddth, 0);
-    frames(m, th, F, NULL);
+    frames(m, q, th, F, NULL);
     forward_pass(m, F, dth, ddth, v, a, f, NULL);
     generalized(m, F, f, th, dth, tau, pas, out);
     free(F); free(w);
@@ -344,19 +432,18 @@ static void crba_joint(const Model *m, const Frame *F, double *H) {
     for (int i = nb - 1; i >= 0; i--) {
         int p = PARENT(m, i), j = JOINT(m, i);
         if (j >= 0) {
-            double S[6], f[6], t[6];
-            subspace(m, i, S);
-            mv6(Ic + 36 * i, S, f);
-            H[j * nm + j] = dot6(S, f);
-            for (int b = i; PARENT(m, b) >= 0;) {
-                force_out(F + b, f, t);
-                memcpy(f, t, sizeof t);
-                b = PARENT(m, b);
-                int jb = JOINT(m, b);
-                if (jb >= 0) {
-                    double Sb[6];
-                    subspace(m, b, Sb);
-                    H[j * nm + jb] = H[jb * nm + j] = dot6(Sb, f);
+            double S[18], Sb[18], f[6], t[6];
+            int d = subspace(m, i, S);
+            for (int c = 0; c < d; c++) {
+                mv6(Ic + 36 * i, S + 6 * c, f);
+                for (int e = 0; e < d; e++) H[(j + e) * nm + j + c] = dot6(S + 6 * e, f);
+                for (int b = i; PARENT(m, b) >= 0;) {
+                    force_out(F + b, f, t);
+                    memcpy(f, t, sizeof t);
+                    b = PARENT(m, b);
+                    int jb = JOINT(m, b), db = jb >= 0 ? subspace(m, b, Sb) : 0;
+                    for (int e = 0; e < db; e++)
+                        H[(j + c) * nm + jb + e] = H[(jb + e) * nm + j + c] = dot6(Sb + 6 * e, f);
                 }
             }
         }
@@ -442,23 +529,51 @@ static void cholesky_solve(const double *M, double *b, int n) {
     }
 }
 
-/* ddtheta by the articulated-body algorithm for the joint forces tau (NM) */
+/* Dinv = D^-1 for a symmetric d x d D (d <= 3) by its Cholesky factor; 1 if D is
+   not positive definite */
+static int small_inverse(const double *D, int d, double *Dinv) {
+    double L[9] = {0}, Li[9] = {0};
+    if (d == 1) {
+        if (!(D[0] > 0.0)) return 1;
+        Dinv[0] = 1.0 / D[0];
+        return 0;
+    }
+    memcpy(L, D, sizeof(double) * d * d);
+    if (cholesky(L, d)) return 1;
+    for (int c = 0; c < d; c++) {                      /* Li = L^-1, column c */
+        for (int r = c; r < d; r++) {
+            double s = r == c ? 1.0 : 0.0;
+            for (int k = c; k < r; k++) s -= L[r * d + k] * Li[k * d + c];
+            Li[r * d + c] = s / L[r * d + r];
+        }
+    }
+    for (int r = 0; r < d; r++)                        /* Dinv = Li^T Li */
+        for (int c = 0; c < d; c++) {
+            double s = 0.0;
+            for (int k = r > c ? r : c; k < d; k++) s += Li[k * d + r] * Li[k * d + c];
+            Dinv[r * d + c] = s;
+        }
+    return 0;
+}
+
+/* ddtheta by the articulated-body algorithm for the joint forces tau (NM): per
+   joint with d speeds (columns S), U = I^A S, D = S^T U (d x d), u = tau - S^T p^A */
 static int aba_joint(const Model *m, const Frame *F, const double *dth, const double *tau,
                      double *ddth) {
     int nb = m->nb;
-    double *w = malloc(sizeof(double) * (6 * nb * 5 + 36 * nb + 2 * nb));
+    double *w = malloc(sizeof(double) * (6 * nb * 4 + 18 * nb + 36 * nb + 12 * nb));
     if (!w) return 1;
-    double *v = w, *c = v + 6 * nb, *pA = c + 6 * nb, *U = pA + 6 * nb, *a = U + 6 * nb,
-           *IA = a + 6 * nb, *Dinv = IA + 36 * nb, *u = Dinv + nb;
+    double *v = w, *c = v + 6 * nb, *pA = c + 6 * nb, *a = pA + 6 * nb, *U = a + 6 * nb,
+           *IA = U + 18 * nb, *Dinv = IA + 36 * nb, *u = Dinv + 9 * nb;
     for (int i = 0; i < nb; i++) {
-        double S[6], Iv[6], sd[6];
-        int p = PARENT(m, i), j = JOINT(m, i);
+        double S[18], Iv[6], sd[6] = {0, 0, 0, 0, 0, 0};
+        int p = PARENT(m, i), j = JOINT(m, i), d = subspace(m, i, S);
         if (p < 0) { double z[6] = {0}; motion_in(F + i, z, v + 6 * i); }
         else motion_in(F + i, v + 6 * p, v + 6 * i);
         memset(c + 6 * i, 0, sizeof(double) * 6);
         if (j >= 0) {
-            subspace(m, i, S);
-            for (int k = 0; k < 6; k++) sd[k] = S[k] * dth[j];
+            for (int e = 0; e < d; e++)
+                for (int k = 0; k < 6; k++) sd[k] += S[6 * e + k] * dth[j + e];
             cross_motion(v + 6 * i, sd, c + 6 * i);
             for (int k = 0; k < 6; k++) v[6 * i + k] += sd[k];
         }
@@ -467,23 +582,35 @@ static int aba_joint(const Model *m, const Frame *F, const double *dth, const do
         cross_force(v + 6 * i, Iv, pA + 6 * i);
     }
     for (int i = nb - 1; i >= 0; i--) {
-        int p = PARENT(m, i), j = JOINT(m, i);
-        double *I6 = IA + 36 * i, Ia[36], pa[6], t[6];
+        int p = PARENT(m, i), j = JOINT(m, i), d = 0;
+        double *I6 = IA + 36 * i, Ia[36], pa[6], t[6], S[18], *Ui = U + 18 * i,
+               *Di = Dinv + 9 * i, *ui = u + 3 * i, Du[3] = {0, 0, 0};
         memcpy(Ia, I6, sizeof Ia);
         if (j >= 0) {
-            double S[6];
-            subspace(m, i, S);
-            mv6(I6, S, U + 6 * i);
-            double D = dot6(S, U + 6 * i);
-            if (!(D > 0.0)) { free(w); return 1; }
-            Dinv[i] = 1.0 / D;
-            u[i] = tau[j] - dot6(S, pA + 6 * i);
-            for (int r = 0; r < 6; r++)
-                for (int k = 0; k < 6; k++) Ia[6 * r + k] -= U[6 * i + r] * U[6 * i + k] * Dinv[i];
+            double D[9];
+            d = subspace(m, i, S);
+            for (int e = 0; e < d; e++) {
+                mv6(I6, S + 6 * e, Ui + 6 * e);
+                ui[e] = tau[j + e] - dot6(S + 6 * e, pA + 6 * i);
+            }
+            for (int r = 0; r < d; r++)
+                for (int e = 0; e < d; e++) D[r * d + e] = dot6(S + 6 * r, Ui + 6 * e);
+            if (small_inverse(D, d, Di)) { free(w); return 1; }
+            for (int r = 0; r < d; r++)
+                for (int e = 0; e < d; e++) Du[r] += Di[r * d + e] * ui[e];
+            for (int r = 0; r < d; r++)                 /* Ia -= U Dinv U^T */
+                for (int e = 0; e < d; e++) {
+                    double g = Di[r * d + e];
+                    for (int x = 0; x < 6; x++)
+                        for (int k = 0; k < 6; k++) Ia[6 * x + k] -= Ui[6 * r + x] * g * Ui[6 * e + k];
+                }
         }
         if (p < 0) continue;
         mv6(Ia, c + 6 * i, pa);
-        for (int k = 0; k < 6; k++) pa[k] += pA[6 * i + k] + (j >= 0 ? U[6 * i + k] * Dinv[i] * u[i] : 0.0);
+        for (int k = 0; k < 6; k++) {
+            pa[k] += pA[6 * i + k];
+            for (int e = 0; e < d; e++) pa[k] += Ui[6 * e + k] * Du[e];
+        }
         add_congruence(F + i, Ia, IA + 36 * p);
         force_out(F + i, pa, t);
         for (int k = 0; k < 6; k++) pA[6 * p + k] += t[k];
@@ -496,10 +623,16 @@ static int aba_joint(const Model *m, const Frame *F, const double *dth, const do
         } else motion_in(F + i, a + 6 * p, a + 6 * i);
         for (int k = 0; k < 6; k++) a[6 * i + k] += c[6 * i + k];
         if (j >= 0) {
-            double S[6];
-            subspace(m, i, S);
-            ddth[j] = (u[i] - dot6(U + 6 * i, a + 6 * i)) * Dinv[i];
-            for (int k = 0; k < 6; k++) a[6 * i + k] += S[k] * ddth[j];
+            double S[18], r[3];
+            int d = subspace(m, i, S);
+            const double *Ui = U + 18 * i, *Di = Dinv + 9 * i, *ui = u + 3 * i;
+            for (int e = 0; e < d; e++) r[e] = ui[e] - dot6(Ui + 6 * e, a + 6 * i);
+            for (int e = 0; e < d; e++) {
+                double s = 0.0;
+                for (int k = 0; k < d; k++) s += Di[e * d + k] * r[k];
+                ddth[j + e] = s;
+                for (int k = 0; k < 6; k++) a[6 * i + k] += S[6 * e + k] * s;
+            }
         }
     }
     free(w);
@@ -511,8 +644,8 @@ static int finite_all(const double *v, int k) {
     return 1;
 }
 
-/* ddq solving M ddq = A^T (e + tau_passive - bias): e the joint efforts of the
-   actuators (NM); by ABA (MODE 0, 1) or CRBA + Cholesky (MODE 2) */
+/* du solving M du = A^T (e + tau_passive - bias) at x = [q, u]: e the joint
+   efforts of the actuators (NM); by ABA (MODE 0, 1) or CRBA + Cholesky (MODE 2) */
 static int accelerations(const Model *m, const double *x, const double *e, double *ddq) {
     int n = m->n, nm = m->nm, nb = m->nb, code = 0;
     Frame *F = malloc(sizeof(Frame) * nb);
@@ -520,9 +653,9 @@ static int accelerations(const Model *m, const double *x, const double *e, doubl
     if (!F || !w) { free(F); free(w); return 1; }
     double *th = w, *dth = th + nm, *tau = dth + nm, *ddth = tau + nm, *bias = ddth + nm,
            *H = bias + nm, *M = H + nm * nm, *HA = M + n * n, *scratch = HA + nm * n;
-    joint_map(m, x, th, 1);
-    joint_map(m, x + n, dth, 0);
-    frames(m, th, F, NULL);
+    positions(m, x, th);
+    joint_map(m, x + m->nq, dth, 0);
+    frames(m, x, th, F, NULL);
     passive(m, th, dth, tau);
     for (int j = 0; j < nm; j++) tau[j] += e[j];
     if (m->mode != 2) {
@@ -567,19 +700,19 @@ static void moved_forces(const Model *m, const int *mask, const Frame *F, const 
     memcpy(tau, tau0, sizeof(double) * m->nm);
     memset(has, 0, sizeof(int) * m->nb);
     for (int i = m->nb - 1; i >= 0; i--) {
-        int p = PARENT(m, i), j = JOINT(m, i);
-        double S[6], t[6], t0[6];
+        int p = PARENT(m, i), j = JOINT(m, i), dof;
+        double S[18], t[6], t0[6];
         if (!mask[i] && !has[i]) continue;
-        subspace(m, i, S);
+        dof = subspace(m, i, S);
         if (mask[i]) {
-            if (j >= 0) tau[j] = dot6(S, fk + 6 * i);
+            for (int c = 0; c < dof; c++) tau[j + c] = dot6(S + 6 * c, fk + 6 * i);
             if (p < 0) continue;
             force_out(Fk + i, fk + 6 * i, t);
             if (mask[p]) { for (int k = 0; k < 6; k++) fk[6 * p + k] += t[k]; continue; }
             force_out(F + i, acc + 6 * i, t0);
             for (int k = 0; k < 6; k++) t[k] -= t0[k];
         } else {
-            if (j >= 0) tau[j] = tau0[j] + dot6(S, d + 6 * i);
+            for (int c = 0; c < dof; c++) tau[j + c] = tau0[j + c] + dot6(S + 6 * c, d + 6 * i);
             if (p < 0) continue;
             force_out(F + i, d + 6 * i, t);
         }
@@ -588,56 +721,69 @@ static void moved_forces(const Model *m, const int *mask, const Frame *F, const 
     }
 }
 
-/* J = [[0, 1], [M^-1 K]] (2N x 2N) at fixed joint efforts e: K = -dID/dx at fixed
-   ddq, column by column by central differences of the recursive Newton-Euler
-   algorithm (step 6e-6 max(1, |x_k|)) redone only on the bodies that a
-   coordinate moves (their subtrees, and the change of force up to the root),
-   then solved with the factor of M (composite rigid bodies; with A = 1 the
-   tree's LTL factor, else a dense Cholesky factor) */
+/* whether the joint of body i moves with the state entry k of x = [q, u] */
+static int moves_with(const Model *m, int i, int k) {
+    int j = JOINT(m, i);
+    if (j < 0) return 0;
+    if (KIND(m, i) == SPHERICAL) {
+        int first = k < m->nq ? COORDINATE(m, i) : m->nq + SPEED(m, i);
+        return k >= first && k < first + (k < m->nq ? 4 : 3);
+    }
+    if (k >= m->np && k < m->nq) return 0;              /* a quaternion's coordinate */
+    return m->A[j * m->n + (k < m->nq ? k : k - m->nq)] != 0.0;
+}
+
+/* J = [[R, 0 ...], [M^-1 K]] ((NQ + N) x (NQ + N)) at fixed joint efforts e: R =
+   d(W(q) u)/dx (rate_rows), K = -dID/dx at fixed du, column by column by central
+   differences of the recursive Newton-Euler algorithm (step 6e-6 max(1, |x_k|))
+   redone only on the bodies that a state entry moves (their subtrees, and the
+   change of force up to the root), then solved with the factor of M (composite
+   rigid bodies; with A = 1 the tree's LTL factor, else a dense Cholesky factor) */
 static int jacobian(const Model *m, const double *x, const double *e, double *J) {
-    int n = m->n, nm = m->nm, nb = m->nb, n2 = 2 * n, code;
+    int n = m->n, nq = m->nq, nm = m->nm, nb = m->nb, ns = nq + n, code;
     Frame *F = malloc(sizeof(Frame) * 2 * nb);
     int *mask = malloc(sizeof(int) * (3 * nb + nm));
-    double *w = malloc(sizeof(double) * (4 * n + n2 + 9 * nm + 54 * nb + nm * nm + nm * n + n * n));
+    double *w = malloc(sizeof(double) * (4 * n + ns + 9 * nm + 54 * nb + nm * nm + nm * n + n * n));
     if (!F || !mask || !w) { free(F); free(mask); free(w); return 1; }
     Frame *Fk = F + nb;
     int *has = mask + nb, *own = has + nb, *lam = own + nb;
     double *ddq = w, *moved = ddq + n, *back = moved + n, *col = back + n,
            *xp = col + n,
-           *th = xp + n2, *dth = th + nm, *ddth = dth + nm, *thk = ddth + nm, *dthk = thk + nm,
+           *th = xp + ns, *dth = th + nm, *ddth = dth + nm, *thk = ddth + nm, *dthk = thk + nm,
            *tau = dthk + nm, *tau0 = tau + nm, *pas = tau0 + nm, *pas0 = pas + nm, *v = pas0 + nm, *a = v + 6 * nb,
            *f = a + 6 * nb, *vk = f + 6 * nb, *ak = vk + 6 * nb, *fk = ak + 6 * nb,
            *acc = fk + 6 * nb, *d = acc + 6 * nb, *H = d + 6 * nb,
            *HA = H + nm * nm, *M = HA + nm * n;
     code = accelerations(m, x, e, ddq);
     if (!code) {
-        joint_map(m, x, th, 1);
-        joint_map(m, x + n, dth, 0);
+        positions(m, x, th);
+        joint_map(m, x + nq, dth, 0);
         joint_map(m, ddq, ddth, 0);
-        frames(m, th, F, NULL);
+        frames(m, x, th, F, NULL);
         forward_pass(m, F, dth, ddth, v, a, f, NULL);
         memcpy(acc, f, sizeof(double) * 6 * nb);
         backward_pass(m, F, acc, tau0);
         passive(m, th, dth, pas0);
         crba_joint(m, F, H);
         mass(m, H, M, HA);
-        for (int i = 0; i < nb; i++) {      /* each joint's nearest moving ancestor */
+        for (int i = 0; i < nb; i++) {      /* each speed's nearest moving ancestor */
             int j = JOINT(m, i), p = PARENT(m, i);
             while (p >= 0 && JOINT(m, p) < 0) p = PARENT(m, p);
-            if (j >= 0) lam[j] = p < 0 ? -1 : JOINT(m, p);
+            if (j < 0) continue;
+            lam[j] = p < 0 ? -1 : JOINT(m, p) + speeds_of(KIND(m, p)) - 1;
+            for (int c = 1; c < speeds_of(KIND(m, i)); c++) lam[j + c] = j + c - 1;
         }
         code = m->mode == 0 ? tree_factor(M, lam, n) : cholesky(M, n);
     }
-    memset(J, 0, sizeof(double) * n2 * n2);
-    for (int i = 0; i < n; i++) J[i * n2 + n + i] = 1.0;
-    memcpy(xp, x, sizeof(double) * n2);
+    memset(J, 0, sizeof(double) * ns * ns);
+    rate_rows(m, x, J);
+    memcpy(xp, x, sizeof(double) * ns);
     memcpy(Fk, F, sizeof(Frame) * nb);
     memcpy(vk, v, sizeof(double) * 18 * nb);          /* v, a, f: contiguous */
-    for (int k = 0; k < n2 && !code; k++) {
-        int c = k % n;
+    for (int k = 0; k < ns && !code; k++) {
         for (int i = 0; i < nb; i++) {
-            int j = JOINT(m, i), p = PARENT(m, i);
-            own[i] = j >= 0 && m->A[j * n + c] != 0.0;
+            int p = PARENT(m, i);
+            own[i] = moves_with(m, i, k);
             mask[i] = own[i] || (p >= 0 && mask[p]);
         }
         double step = 6e-6 * fmax(1.0, fabs(x[k])), h = 0.0;
@@ -645,14 +791,17 @@ static int jacobian(const Model *m, const double *x, const double *e, double *J)
             double *out = side ? back : moved;
             xp[k] = x[k] + (side ? -step : step);
             h += side ? x[k] - xp[k] : xp[k] - x[k];
-            joint_map(m, xp, thk, 1);
-            joint_map(m, xp + n, dthk, 0);
-            if (k < n) frames(m, thk, Fk, own);            /* the others' do not move */
+            positions(m, xp, thk);
+            joint_map(m, xp + nq, dthk, 0);
+            if (k < nq) frames(m, xp, thk, Fk, own);        /* the others' do not move */
             forward_pass(m, Fk, dthk, ddth, vk, ak, fk, mask);
             moved_forces(m, mask, F, Fk, fk, acc, tau0, d, has, tau);
             memcpy(pas, pas0, sizeof(double) * nm);
-            for (int j = 0; j < nm; j++)
-                if (m->A[j * n + c] != 0.0) pas[j] = passive_of(m, j, thk[j], dthk[j]);
+            for (int i = 0; i < nb; i++)
+                if (own[i] && KIND(m, i) != SPHERICAL) {
+                    int j = JOINT(m, i);
+                    pas[j] = passive_of(m, j, thk[j], dthk[j]);
+                }
             for (int r = 0; r < n; r++) {
                 double s = 0.0;
                 if (m->mode == 0) s = tau[r] - pas[r];
@@ -660,7 +809,7 @@ static int jacobian(const Model *m, const double *x, const double *e, double *J)
                 out[r] = s;
             }
         }
-        for (int r = 0; r < n; r++) J[(n + r) * n2 + k] = -(moved[r] - back[r]) / h;
+        for (int r = 0; r < n; r++) J[(nq + r) * ns + k] = -(moved[r] - back[r]) / h;
         xp[k] = x[k];
         for (int i = 0; i < nb; i++)                       /* back to the base state */
             if (mask[i]) {
@@ -670,15 +819,15 @@ static int jacobian(const Model *m, const double *x, const double *e, double *J)
                 memcpy(fk + 6 * i, f + 6 * i, sizeof(double) * 6);
             }
     }
-    for (int k = 0; k < n2 && !code; k++) {
-        for (int r = 0; r < n; r++) col[r] = J[(n + r) * n2 + k];
+    for (int k = 0; k < ns && !code; k++) {
+        for (int r = 0; r < n; r++) col[r] = J[(nq + r) * ns + k];
         if (m->mode == 0) tree_solve(M, lam, col, n);
         else cholesky_solve(M, col, n);
-        for (int r = 0; r < n; r++) J[(n + r) * n2 + k] = col[r];
+        for (int r = 0; r < n; r++) J[(nq + r) * ns + k] = col[r];
     }
     free(F); free(mask); free(w);
     if (code) return code;
-    return finite_all(J, n2 * n2) ? 0 : 2;
+    return finite_all(J, ns * ns) ? 0 : 2;
 }
 
 #define PY_SSIZE_T_CLEAN
@@ -702,15 +851,20 @@ static int tables(PyObject *const *args, Py_buffer *bi, Py_buffer *bd, Model *m)
     if (buffer(args[0], bi, "i", sizeof(int), -1, 0) < 0) return -1;
     const int *I = (const int *)bi->buf;
     Py_ssize_t ni = bi->len / (Py_ssize_t)sizeof(int);
-    if (ni < 4 || I[0] < 1 || I[1] < 1 || I[2] < 1 || I[3] < 0 || I[3] > 2
-        || (size_t)ni != ints_needed(I[0])) {
+    if (ni < HEAD || I[0] < 1 || I[1] < 1 || I[2] < 1 || I[3] < 0 || I[3] > 2
+        || I[4] < I[1] || I[1] - 3 * (I[4] - I[1]) < 0 || (size_t)ni != ints_needed(I[0])) {
         PyBuffer_Release(bi);
         PyErr_SetString(PyExc_ValueError, "malformed integer table");
         return -1;
     }
     for (int i = 0; i < I[0]; i++) {
-        int p = I[4 + 3 * i], k = I[5 + 3 * i], j = I[6 + 3 * i];
-        if (p < -1 || p >= i || k < 0 || k > 2 || j < -1 || j >= I[2] || ((k == 0) != (j < 0))) {
+        const int *b = I + HEAD + STRIDE * i;
+        int p = b[0], k = b[1], j = b[2], c = b[3], u = b[4];
+        int sphere = k == SPHERICAL && c >= I[1] - 3 * (I[4] - I[1]) && c + 4 <= I[4]
+                     && u >= 0 && u + 3 <= I[1];
+        if (p < -1 || p >= i || k < 0 || k > SPHERICAL || j < -1
+            || j + (k == SPHERICAL ? 3 : 1) > I[2] || ((k == 0) != (j < 0))
+            || (k == SPHERICAL ? !sphere : (c != -1 || u != -1))) {
             PyBuffer_Release(bi);
             PyErr_SetString(PyExc_ValueError, "malformed body table");
             return -1;
@@ -725,25 +879,26 @@ static int tables(PyObject *const *args, Py_buffer *bi, Py_buffer *bd, Model *m)
     return 0;
 }
 
-/* out = [dq, ddq] */
+/* out = [W(q) u, du] */
 static int rhs(const Model *m, const double *x, const double *e, double *out) {
-    memcpy(out, x + m->n, sizeof(double) * m->n);
-    return accelerations(m, x, e, out + m->n);
+    rates(m, x, out);
+    return accelerations(m, x, e, out + m->nq);
 }
 
 typedef int (*state_kernel)(const Model *, const double *, const double *, double *);
 
-/* f(ints, doubles, x, e, out) for a kernel of the state x (2N) and the joint
-   efforts e (NM) writing 2N values, or 2N x 2N when square */
+/* f(ints, doubles, x, e, out) for a kernel of the state x (NQ + N) and the joint
+   efforts e (NM) writing NQ + N values, or (NQ + N)^2 when square */
 static PyObject *state_call(PyObject *const *args, Py_ssize_t nargs, state_kernel f, int square) {
     if (nargs != 5) { PyErr_SetString(PyExc_TypeError, "expected (ints, doubles, x, e, out)"); return NULL; }
     Py_buffer bi, bd, bx, be, bo;
     Model m;
     if (tables(args, &bi, &bd, &m) < 0) return NULL;
     int code = -1;
-    if (buffer(args[2], &bx, "d", 8, 2 * m.n, 0) == 0) {
+    Py_ssize_t ns = m.nq + m.n;
+    if (buffer(args[2], &bx, "d", 8, ns, 0) == 0) {
         if (buffer(args[3], &be, "d", 8, m.nm, 0) == 0) {
-            if (buffer(args[4], &bo, "d", 8, 2 * m.n * (square ? 2 * m.n : 1), 1) == 0) {
+            if (buffer(args[4], &bo, "d", 8, ns * (square ? ns : 1), 1) == 0) {
                 code = f(&m, (const double *)bx.buf, (const double *)be.buf, (double *)bo.buf);
                 PyBuffer_Release(&bo);
             }
@@ -755,17 +910,18 @@ static PyObject *state_call(PyObject *const *args, Py_ssize_t nargs, state_kerne
     return code < 0 ? NULL : PyLong_FromLong(code);
 }
 
-/* rhs(ints, doubles, x, e, out): out = [dq, ddq] -> code */
+/* rhs(ints, doubles, x, e, out): out = [W(q) u, du] -> code */
 static PyObject *py_rhs(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self; return state_call(args, nargs, rhs, 0);
 }
 
-/* jac(ints, doubles, x, e, J): J (2N x 2N) -> code */
+/* jac(ints, doubles, x, e, J): J ((NQ + N)^2) -> code */
 static PyObject *py_jac(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self; return state_call(args, nargs, jacobian, 1);
 }
 
-/* inverse(ints, doubles, count, x, w, out): out[k] = M w[k] - F at x[k] (no actuators) */
+/* inverse(ints, doubles, count, x, w, out): out[k] = M w[k] - F at x[k] = [q, u]
+   (no actuators) */
 static PyObject *py_inverse(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
     if (nargs != 6) { PyErr_SetString(PyExc_TypeError, "expected (ints, doubles, count, x, w, out)"); return NULL; }
@@ -775,14 +931,15 @@ static PyObject *py_inverse(PyObject *self, PyObject *const *args, Py_ssize_t na
     if (count < 0) { if (!PyErr_Occurred()) PyErr_SetString(PyExc_ValueError, "count < 0"); return NULL; }
     if (tables(args, &bi, &bd, &m) < 0) return NULL;
     int code = -1;
-    if (buffer(args[3], &bx, "d", 8, 2 * m.n * count, 0) == 0) {
+    Py_ssize_t ns = m.nq + m.n;
+    if (buffer(args[3], &bx, "d", 8, ns * count, 0) == 0) {
         if (buffer(args[4], &bw, "d", 8, m.n * count, 0) == 0) {
             if (buffer(args[5], &bo, "d", 8, m.n * count, 1) == 0) {
                 const double *x = (const double *)bx.buf, *w = (const double *)bw.buf;
                 double *o = (double *)bo.buf;
                 code = 0;
                 for (Py_ssize_t k = 0; k < count && !code; k++)
-                    code = inverse(&m, x + 2 * m.n * k, x + 2 * m.n * k + m.n, w + m.n * k, o + m.n * k);
+                    code = inverse(&m, x + ns * k, x + ns * k + m.nq, w + m.n * k, o + m.n * k);
                 PyBuffer_Release(&bo);
             }
             PyBuffer_Release(&bw);
@@ -793,7 +950,7 @@ static PyObject *py_inverse(PyObject *self, PyObject *const *args, Py_ssize_t na
     return code < 0 ? NULL : PyLong_FromLong(code);
 }
 
-/* mass(ints, doubles, q, out): out = M(q) (N x N) by composite rigid bodies */
+/* mass(ints, doubles, q, out): out = M(q) (N x N, q: NQ) by composite rigid bodies */
 static PyObject *py_mass(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
     if (nargs != 4) { PyErr_SetString(PyExc_TypeError, "expected (ints, doubles, q, out)"); return NULL; }
@@ -801,14 +958,14 @@ static PyObject *py_mass(PyObject *self, PyObject *const *args, Py_ssize_t nargs
     Model m;
     if (tables(args, &bi, &bd, &m) < 0) return NULL;
     int code = -1;
-    if (buffer(args[2], &bq, "d", 8, m.n, 0) == 0) {
+    if (buffer(args[2], &bq, "d", 8, m.nq, 0) == 0) {
         if (buffer(args[3], &bo, "d", 8, m.n * m.n, 1) == 0) {
             Frame *F = malloc(sizeof(Frame) * m.nb);
             double *th = malloc(sizeof(double) * (m.nm + m.nm * m.nm + m.nm * m.n));
             code = 1;
             if (F && th) {
-                joint_map(&m, (const double *)bq.buf, th, 1);
-                frames(&m, th, F, NULL);
+                positions(&m, (const double *)bq.buf, th);
+                frames(&m, (const double *)bq.buf, th, F, NULL);
                 crba_joint(&m, F, th + m.nm);
                 mass(&m, th + m.nm, (double *)bo.buf, th + m.nm + m.nm * m.nm);
                 code = 0;

@@ -2,9 +2,11 @@
 
 ``pack(plan)`` gives ``Tables`` (the integer and double arrays laid out as the
 top of kernel.c says), or None with the reason when the kernel cannot serve
-the robot: external loads, a joint type other than revolute, prismatic or
-fixed, or a joint displacement that is not affine in the coordinates
-(theta = A q + c; nonlinear couplings stay with the generated code).
+the robot: external loads or contacts, a joint displacement that is not affine in
+the coordinates (theta = A q + c; nonlinear couplings stay with the generated
+code).  Joints: revolute, prismatic, fixed and spherical (its quaternion in the
+coordinates, its three speeds the angular velocity in body axes: unit rows of A,
+``plan.Plan``).
 """
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 #: kernel.c's joint kinds
-KINDS = {"fixed": 0, "revolute": 1, "prismatic": 2}
+KINDS = {"fixed": 0, "revolute": 1, "prismatic": 2, "spherical": 3}
 #: MODE: theta = q + c; A square and invertible; otherwise (CRBA + Cholesky)
 IDENTITY, INVERTIBLE, GENERAL = 0, 1, 2
 
@@ -45,6 +47,14 @@ def affine_map(pl) -> tuple[np.ndarray, np.ndarray] | None:
     return np.array(rows, dtype=float).reshape(len(rows), n), np.array(offsets, dtype=float)
 
 
+def _in_order(b, A: np.ndarray) -> bool:
+    """Whether spherical joint ``b``'s quaternion is four coordinates in a row and its
+    joint rows of A are unit rows on its three speeds, in order (as kernel.c reads)."""
+    first = b.quaternion[0]
+    return (list(b.quaternion) == list(range(first, first + 4))
+            and np.array_equal(A[b.joint:b.joint + 3], np.eye(A.shape[1])[b.speed:b.speed + 3]))
+
+
 def pack(pl) -> tuple[Tables | None, str]:
     """(Tables, "") for ``recursive.plan`` ``pl``, or (None, why not)."""
     if pl.loads:
@@ -62,6 +72,8 @@ def pack(pl) -> tuple[Tables | None, str]:
     if joint_map is None:
         return None, "a joint displacement that is not affine in the coordinates"
     A, c = joint_map
+    if any(b.quaternion is not None and not _in_order(b, A) for b in pl.bodies):
+        return None, "a quaternion's coordinates or speeds out of order"
     nm, n = A.shape
     if nm == n and np.array_equal(A, np.eye(n)):
         mode, extra = IDENTITY, []
@@ -69,11 +81,12 @@ def pack(pl) -> tuple[Tables | None, str]:
         mode, extra = INVERTIBLE, [np.linalg.inv(A).ravel()]
     else:
         mode, extra = GENERAL, []
-    ints = [len(pl.bodies), n, nm, mode]
+    ints = [len(pl.bodies), n, nm, mode, pl.nq]
     doubles = [np.asarray(pl.gravity, dtype=float)]
     for i, b in enumerate(pl.bodies):
         ints += [-1 if b.parent is None else b.parent, KINDS[words[i]],
-                 -1 if b.joint is None else b.joint]
+                 -1 if b.joint is None else b.joint,
+                 *((b.quaternion[0], b.speed) if b.quaternion else (-1, -1))]
         doubles += [np.array(b.C, dtype=float).T.ravel(), b.origin, b.axis, [b.mass], b.h,
                     np.array(b.I_O, dtype=float).ravel()]
     for body in pl.moving:

@@ -83,9 +83,24 @@ def python_include() -> str | None:
 
 
 def flags(c_text: str) -> tuple[str, ...]:
-    """FLAGS for a module with the Jacobian and for the generic kernel
-    (``generic``), QUICK_FLAGS for a quick one."""
-    return FLAGS if "anadyn_jac" in c_text or "anadyn_generic" in c_text else QUICK_FLAGS
+    """FLAGS for a module with the Jacobian, for the generic kernel (``generic``) and
+    for the regressor (``recursive.regressor``), QUICK_FLAGS for a quick one; and
+    NumPy's headers (``_numpy_flags``) where the C includes them."""
+    chosen = FLAGS if any(mark in c_text for mark in ("anadyn_jac", "anadyn_generic",
+                                                       "anadyn_regressor")) else QUICK_FLAGS
+    return (*chosen, *_numpy_flags()) if NUMPY_MARK in c_text else chosen
+
+
+#: in the C of a module that makes NumPy arrays (``recursive.derivatives``)
+NUMPY_MARK = "#include <numpy/arrayobject.h>"
+
+
+def _numpy_flags() -> tuple[str, ...]:
+    """NumPy's headers, and its version as a define that no code reads: in the
+    command, so that another NumPy names another module (built against its headers)."""
+    import numpy
+
+    return (f"-I{numpy.get_include()}", f"-DANADYN_NUMPY_VERSION={numpy.__version__}")
 
 
 def _config(name: str) -> list[str]:

@@ -39,9 +39,10 @@ _ATOM = re.compile(r"\b_(?:[aquwe]\d+|t)\b")
 
 
 def _chunked(name: str, params: str, inputs: dict[str, str], statements,
-             outputs) -> list[str]:
+             outputs, attributes: str = "") -> list[str]:
     """``static int name(params)``: inputs (atom -> C expression), the statements
-    in functions of at most CHUNK statements, then ``outputs`` (target, Ex)."""
+    in functions of at most CHUNK statements (declared with ``attributes``, a
+    macro of the C text, before ``int``), then ``outputs`` (target, Ex)."""
     from ..ir import c_expr, c_lines
 
     chunks = [statements[i:i + CHUNK] for i in range(0, len(statements), CHUNK)] or [[]]
@@ -76,7 +77,8 @@ def _chunked(name: str, params: str, inputs: dict[str, str], statements,
             atom = match.group(0)
             return atom if atom in local else f"v[{slots[atom]}]"
 
-        lines.append(f"static __attribute__((noinline)) int {name}_{k}(double *restrict v) {{")
+        lines.append(f"static __attribute__((noinline)) {attributes + ' ' if attributes else ''}"
+                     f"int {name}_{k}(double *restrict v) {{")
         for s in chunk:
             for text in c_lines([s]):
                 lhs, sep, rhs = text.partition(" = ")

@@ -135,6 +135,20 @@ class RecursiveModel(NumericModel):
             J[self.nq + order[i]] = y[i]
         return J
 
+    def problem(self, open_contacts: bool = False):
+        """``NumericModel.problem``; with a spherical joint (its C library has no
+        Jacobian) the integrators' Jacobian is ``generic.differences`` of
+        ``rhs`` (the same bits from C or Python), not the generated Python's,
+        which is compiled first (~0.3 s for a humanoid); ``jacobian`` stays exact."""
+        problem = super().problem(open_contacts)
+        if not self.quaternions:
+            return problem
+        from dataclasses import replace
+
+        from ..generic.differences import central_differences
+        return replace(problem, jacobian=lambda t, x: central_differences(
+            lambda y: self.rhs(t, y), np.asarray(x, dtype=float)))
+
     def driven_accelerations(self, t: float, x: np.ndarray, efforts) -> np.ndarray:
         return np.array(self.scalar("driven_accelerations")(
             t, *np.asarray(x, dtype=float).tolist(), *np.asarray(efforts, dtype=float).tolist()))

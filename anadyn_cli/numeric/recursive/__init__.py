@@ -13,6 +13,7 @@ module, as in Pinocchio:
 - ``aba``: forward dynamics in O(n) (articulated bodies);
 - ``potential``: the potential energy;
 - ``factor``: the sparse Cholesky factorization and solve of M ddq = G;
+- ``regressor``: the joint-torque regressor Y with M ddq - F = Y pi (RNEA columns);
 - ``trace``: the generated functions, traced and pruned;
 - ``emit``: the generated Python module.
 

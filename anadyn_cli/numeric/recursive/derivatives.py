@@ -16,6 +16,8 @@ vectorized (NumPy arrays of states, ``_v`` names).
 """
 from __future__ import annotations
 
+from importlib import resources
+
 from ..ir import ZERO, Ex, Program
 from .crba import mass_matrix
 from .emit import PY_HEADER, VEC_HEADER, _python_function
@@ -96,91 +98,48 @@ def module_source(pl: Plan, parameters: tuple[Traced, Traced] | None = None) -> 
     return "\n".join(lines) + "\n"
 
 
+def _template(name: str) -> str:
+    """The text of the template ``name`` beside this file."""
+    return resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
+
+
 #: the fixed part of the Python module: the derivatives from the generated functions,
 #: at one state (q of shape (N,)) or at many (rows of (count, N) arrays), NumPy solves
-PY_DRIVER = '''
-def _call(scalar, vectorized, t, q, dq, w, e):
-    if q.ndim == 1:
-        return scalar(float(t), *q, *dq, *w, *e)
-    t = numpy.broadcast_to(numpy.asarray(t, dtype=float), q.shape[:1])
-    return vectorized(t, *q.T, *dq.T, *w.T, *e.T)
-
-
-def _arrays(*values):
-    return [numpy.asarray(v, dtype=float) for v in values]
-
-
-def _forward(t, q, dq, tau):
-    M, ID = _call(open_loop_residual, open_loop_residual_v, t, q, dq, numpy.zeros_like(q), tau)
-    return numpy.linalg.solve(M, -numpy.asarray(ID)[..., None])[..., 0], M
-
-
-def forward_dynamics(t, q, dq, tau):
-    """ddq solving M ddq = F + B tau: (N,) at one state, (count, N) at count states."""
-    return _forward(t, *_arrays(q, dq, tau))[0]
-
-
-def forward_derivatives(t, q, dq, tau):
-    """d(ddq)/dq (N, N), d(ddq)/d(dq) (N, N), d(ddq)/dtau = M^-1 B (N, M_EFFORTS),
-    with a leading count at count states."""
-    q, dq, tau = _arrays(q, dq, tau)
-    ddq, _ = _forward(t, q, dq, tau)
-    M, K = _call(open_loop_jacobian, open_loop_jacobian_v, t, q, dq, ddq, tau)
-    D = numpy.linalg.solve(M, K)
-    return D[..., :N], D[..., N:2 * N], D[..., 2 * N:]
-
-
-def inverse_derivatives(t, q, dq, ddq):
-    """d(ID)/dq, d(ID)/d(dq), d(ID)/d(ddq) = M (N, N each; a leading count at count
-    states), ID = M ddq - F."""
-    q, dq, ddq = _arrays(q, dq, ddq)
-    e = numpy.zeros(q.shape[:-1] + (M_EFFORTS,))
-    M, K = _call(open_loop_jacobian, open_loop_jacobian_v, t, q, dq, ddq, e)
-    return -K[..., :N], -K[..., N:2 * N], M
-
-
-def mass_matrix_inverse(q):
-    """M(q)^-1 (N, N), or (count, N, N) for count rows of q."""
-    q, = _arrays(q)
-    z = numpy.zeros_like(q)
-    e = numpy.zeros(q.shape[:-1] + (M_EFFORTS,))
-    M, _ = _call(open_loop_residual, open_loop_residual_v, 0.0, q, z, z, e)
-    return numpy.linalg.inv(M)
-'''
+PY_DRIVER = _template("derivatives_driver.py.in")
 
 #: ... and with respect to the chosen parameters (``parameters``)
-PY_PARAMETERS = '''
-def forward_parameter_derivatives(t, q, dq, tau):
-    """d(ddq)/dp (N, N_PARAMETERS) at fixed tau (a leading count at count states)."""
-    q, dq, tau = _arrays(q, dq, tau)
-    ddq, M = _forward(t, q, dq, tau)
-    return numpy.linalg.solve(M, -inverse_parameter_derivatives(t, q, dq, ddq))
+PY_PARAMETERS = _template("derivatives_parameters.py.in")
 
 
-def inverse_parameter_derivatives(t, q, dq, ddq):
-    """d(ID)/dp (N, N_PARAMETERS) at fixed ddq (a leading count at count states)."""
-    q, dq, ddq = _arrays(q, dq, ddq)
-    none = numpy.zeros(q.shape[:-1] + (0,))
-    return numpy.asarray(_call(parameter_jacobian, parameter_jacobian_v, t, q, dq, ddq, none))
 
-
-def closed_loop_parameter_derivatives(t, q, dq):
-    """d(ddq)/dp (N, N_PARAMETERS) in closed loop, the efforts under the control laws:
-    M^-1 (B dtau/dp - dID/dp) (a leading count at count states)."""
-    q, dq = _arrays(q, dq)
-    none = numpy.zeros(q.shape[:-1] + (0,))
-    tau, L = _call(law_slopes, law_slopes_v, t, q, dq, none, none)
-    ddq, M = _forward(t, q, dq, numpy.asarray(tau, dtype=float))
-    P = numpy.asarray(_call(parameter_jacobian, parameter_jacobian_v, t, q, dq, ddq, none))
-    return numpy.linalg.solve(M, numpy.asarray(L) - P)
-'''
-
+def _factor_pattern(nonzero: list[list[bool]]) -> list[str]:
+    """The C tables of the structural nonzeros of M's Cholesky factor L below the
+    diagonal (M's nonzeros and their fill-in), from ``nonzero`` (M's): by rows,
+    LOWER[LOWER_START[i]:LOWER_START[i + 1]] the columns k < i of row i, and by
+    columns, UPPER[UPPER_START[i]:...] the rows k > i of column i, ascending."""
+    n = len(nonzero)
+    nz = [list(row) for row in nonzero]
+    for j in range(n):
+        for i in range(j + 1, n):
+            nz[i][j] = nz[i][j] or any(nz[i][k] and nz[j][k] for k in range(j))
+    lower = [[k for k in range(i) if nz[i][k]] for i in range(n)]
+    upper = [[k for k in range(i + 1, n) if nz[k][i]] for i in range(n)]
+    lines = []
+    for name, lists in (("LOWER", lower), ("UPPER", upper)):
+        starts = [0]
+        for entries in lists:
+            starts.append(starts[-1] + len(entries))
+        flat = [k for entries in lists for k in entries] or [0]
+        lines += [f"static const int {name}_START[N + 1] = {{{', '.join(map(str, starts))}}};",
+                  f"static const int {name}[{len(flat)}] = {{{', '.join(map(str, flat))}}};"]
+    return lines
 
 
 def c_source(pl: Plan, parameters: tuple[Traced, Traced] | None = None) -> str | None:
     """The C extension of the derivatives (``C_DRIVER``; module name left as
-    MODULE_NAME; with ``parameters`` (``module_source``), NPAR, ``pfill``: P = dID/dp
-    and ``lfill``: tau and L = B dtau/dp), None when an expression of the robot file
+    MODULE_NAME; the tables of M's factor's structural nonzeros, ``_factor_pattern``;
+    with ``parameters`` (``module_source``), NPAR, ``pfill``: P = dID/dp and
+    ``lfill``: tau and L = B dtau/dp), None when an expression of the robot file
     has no C form."""
     from ..native.emit import _chunked
 
@@ -200,7 +159,7 @@ def c_source(pl: Plan, parameters: tuple[Traced, Traced] | None = None) -> str |
         """``native.emit._chunked``; with no statements (the outputs constants) a plain
         function, every argument marked used (-Wextra)."""
         if statements:
-            return _chunked(name, params, inputs, statements, outputs)
+            return _chunked(name, params, inputs, statements, outputs, "CLONED")
         from ..ir import c_expr
         used = [f"    (void){p.split('*')[-1].split()[-1]};" for p in params.split(",")]
         return ([f"static int {name}({params}) {{", *used]
@@ -215,19 +174,22 @@ def c_source(pl: Plan, parameters: tuple[Traced, Traced] | None = None) -> str |
         out = ["/* generated by anadyn: open-loop derivatives; see "
                "anadyn_cli/numeric/recursive/derivatives.py */",
                "#include <math.h>", "#include <stdlib.h>", "#include <string.h>",
-               f"#define N {n}", f"#define MEFF {m}"]
+               f"#define N {n}", f"#define MEFF {m}", CLONED]
         if parameters is not None:
             k = len(parameters[0].outputs["P"][0])
             out.append(f"#define NPAR {k}")
+        out += _factor_pattern([[not v.is_zero() for v in row] for row in mass.outputs["M"]])
         out.append("")
         out += _chunked("resid", params, inputs, residual.statements,
                         cells("M", residual.outputs["M"], n)
-                        + [(f"out[{k}]", v) for k, v in enumerate(residual.outputs["ID"])])
+                        + [(f"out[{k}]", v) for k, v in enumerate(residual.outputs["ID"])],
+                        "CLONED")
         out += _chunked("mfill", "double _t, const double *x, const double *w, const double *e, "
-                        "double *M", inputs, mass.statements, cells("M", mass.outputs["M"], n))
+                        "double *M", inputs, mass.statements, cells("M", mass.outputs["M"], n),
+                        "CLONED")
         out += _chunked("kfill", "double _t, const double *x, const double *w, const double *e, "
                         "double *out", inputs, jacobian.statements,
-                        cells("out", jacobian.outputs["K"], 2 * n + m))
+                        cells("out", jacobian.outputs["K"], 2 * n + m), "CLONED")
         if parameters is not None:          # out and tau may be written nowhere: used
             jacobian, slopes = parameters
             out += chunk("pfill", "double _t, const double *x, const double *w, double *out",
@@ -244,230 +206,17 @@ def c_source(pl: Plan, parameters: tuple[Traced, Traced] | None = None) -> str |
     return "\n".join(out) + "\n" + C_DRIVER
 
 
-#: the fixed part of the C extension: dense Cholesky, the forward dynamics, the
-#: forward and inverse derivatives at ``count`` states (rows) per call
-C_DRIVER = r"""
-#define NK (2 * N + MEFF)
-#define MAX(a, b) ((a) > (b) ? (a) : (b))
+#: the generated functions and the solves also compiled for processors with AVX, the
+#: version chosen when the module loads (GCC's function multi-versioning, x86-64
+#: Linux): its three-operand instructions need fewer copies between registers, a
+#: third less time at n = 7; the same arithmetic (no contraction), so the same bits
+CLONED = """#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define CLONED __attribute__((target_clones("avx", "default")))
+#else
+#define CLONED
+#endif"""
 
-/* L L^T = M in place (lower triangle); 1 when M is not positive definite */
-static int cholesky(double *M) {
-    for (int j = 0; j < N; j++) {
-        double d = M[j * N + j];
-        for (int k = 0; k < j; k++) d -= M[j * N + k] * M[j * N + k];
-        if (!(d > 0.0)) return 1;
-        d = sqrt(d);
-        M[j * N + j] = d;
-        for (int i = j + 1; i < N; i++) {
-            double v = M[i * N + j];
-            for (int k = 0; k < j; k++) v -= M[i * N + k] * M[j * N + k];
-            M[i * N + j] = v / d;
-        }
-    }
-    return 0;
-}
-
-/* B (N x cols, row-major) := (L L^T)^-1 B, by rows (the inner loops run along a row) */
-static void chosolve(const double *L, double *B, int cols) {
-    double inverse[N];
-    for (int i = 0; i < N; i++) inverse[i] = 1.0 / L[i * N + i];
-    for (int i = 0; i < N; i++) {
-        double *row = B + i * cols;
-        for (int k = 0; k < i; k++) {
-            const double l = L[i * N + k], *other = B + k * cols;
-            for (int c = 0; c < cols; c++) row[c] -= l * other[c];
-        }
-        for (int c = 0; c < cols; c++) row[c] *= inverse[i];
-    }
-    for (int i = N - 1; i >= 0; i--) {
-        double *row = B + i * cols;
-        for (int k = i + 1; k < N; k++) {
-            const double l = L[k * N + i], *other = B + k * cols;
-            for (int c = 0; c < cols; c++) row[c] -= l * other[c];
-        }
-        for (int c = 0; c < cols; c++) row[c] *= inverse[i];
-    }
-}
-
-static int finite_all(const double *v, int k) {
-    for (int i = 0; i < k; i++) if (!isfinite(v[i])) return 0;
-    return 1;
-}
-
-/* ddq solving M ddq = F + B e, and the factor of M in L */
-static int forward(double t, const double *x, const double *e, double *ddq, double *L) {
-    double w[N];
-    memset(w, 0, sizeof w);
-    memset(L, 0, sizeof(double) * N * N);
-    if (resid(t, x, w, e, L, ddq) || cholesky(L)) return 1;
-    for (int i = 0; i < N; i++) ddq[i] = -ddq[i];
-    chosolve(L, ddq, 1);
-    return finite_all(ddq, N) ? 0 : 2;
-}
-
-/* out = [d(ddq)/dq | d(ddq)/d(dq) | d(ddq)/de] (N x NK) = M^-1 K */
-int anadyn_jacobians_forward(double t, const double *x, const double *e, double *out) {
-    double ddq[N], L[N * N];
-    int code = forward(t, x, e, ddq, L);
-    if (code) return code;
-    memset(out, 0, sizeof(double) * N * NK);
-    if (kfill(t, x, ddq, e, out)) return 1;
-    chosolve(L, out, NK);
-    return finite_all(out, N * NK) ? 0 : 2;
-}
-
-/* out = [d(ID)/dq, d(ID)/d(dq), M] (3 N x N) at the accelerations w, no efforts */
-int anadyn_jacobians_inverse(double t, const double *x, const double *w, double *out) {
-    double e[MAX(MEFF, 1)], K[N * NK];
-    memset(e, 0, sizeof e);
-    memset(K, 0, sizeof K);
-    memset(out, 0, sizeof(double) * 3 * N * N);
-    if (mfill(t, x, w, e, out + 2 * N * N) || kfill(t, x, w, e, K)) return 1;
-    for (int r = 0; r < N; r++)
-        for (int c = 0; c < N; c++) {
-            out[r * N + c] = -K[r * NK + c];
-            out[N * N + r * N + c] = -K[r * NK + N + c];
-        }
-    return finite_all(out, 3 * N * N) ? 0 : 2;
-}
-
-#ifdef NPAR
-/* out = d(ddq)/dp (N x NPAR) = -M^-1 dID/dp at the forward accelerations */
-int anadyn_jacobians_forward_parameters(double t, const double *x, const double *e, double *out) {
-    double ddq[N], L[N * N];
-    int code = forward(t, x, e, ddq, L);
-    if (code) return code;
-    memset(out, 0, sizeof(double) * N * NPAR);
-    if (pfill(t, x, ddq, out)) return 1;
-    for (int i = 0; i < N * NPAR; i++) out[i] = -out[i];
-    chosolve(L, out, NPAR);
-    return finite_all(out, N * NPAR) ? 0 : 2;
-}
-
-/* out = d(ddq)/dp (N x NPAR) = M^-1 (L - dID/dp) in closed loop: the efforts under
-   the control laws (e unused) */
-int anadyn_jacobians_closed_parameters(double t, const double *x, const double *e, double *out) {
-    double tau[MAX(MEFF, 1)], slopes[N * NPAR], ddq[N], L[N * N];
-    (void)e;
-    memset(tau, 0, sizeof tau);
-    memset(slopes, 0, sizeof slopes);
-    if (lfill(t, x, tau, slopes)) return 1;
-    int code = forward(t, x, tau, ddq, L);
-    if (code) return code;
-    memset(out, 0, sizeof(double) * N * NPAR);
-    if (pfill(t, x, ddq, out)) return 1;
-    for (int i = 0; i < N * NPAR; i++) out[i] = slopes[i] - out[i];
-    chosolve(L, out, NPAR);
-    return finite_all(out, N * NPAR) ? 0 : 2;
-}
-
-/* out = d(ID)/dp (N x NPAR) at the accelerations w */
-int anadyn_jacobians_inverse_parameters(double t, const double *x, const double *w, double *out) {
-    memset(out, 0, sizeof(double) * N * NPAR);
-    if (pfill(t, x, w, out)) return 1;
-    return finite_all(out, N * NPAR) ? 0 : 2;
-}
-#endif
-
-int anadyn_jacobians_dynamics(double t, const double *x, const double *e, double *ddq) {
-    double L[N * N];
-    return forward(t, x, e, ddq, L);
-}
-
-/* out = M^-1 (N x N) at q = x[:N] (e unused: one signature for the four kernels) */
-int anadyn_jacobians_minv(double t, const double *x, const double *e, double *out) {
-    double L[N * N], z[2 * N], w[N], r[N], f[MAX(MEFF, 1)];
-    (void)e;
-    memcpy(z, x, sizeof(double) * N);
-    memset(z + N, 0, sizeof(double) * N);
-    memset(w, 0, sizeof w);
-    memset(f, 0, sizeof f);
-    memset(L, 0, sizeof L);
-    if (resid(t, z, w, f, L, r) || cholesky(L)) return 1;
-    memset(out, 0, sizeof(double) * N * N);
-    for (int i = 0; i < N; i++) out[i * N + i] = 1.0;
-    chosolve(L, out, N);
-    return finite_all(out, N * N) ? 0 : 2;
-}
-
-#ifdef ANADYN_PYEXT
-#define PY_SSIZE_T_CLEAN
-#include <Python.h>
-
-typedef int (*kernel)(double, const double *, const double *, double *);
-
-static int buffer(PyObject *o, Py_buffer *b, Py_ssize_t items, int writable) {
-    if (PyObject_GetBuffer(o, b, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0)) < 0)
-        return -1;
-    if (b->itemsize != 8 || (b->format && strcmp(b->format, "d") != 0) || b->len != items * 8) {
-        PyBuffer_Release(b);
-        PyErr_SetString(PyExc_TypeError, "expected a contiguous float64 array of the right size");
-        return -1;
-    }
-    return 0;
-}
-
-/* f over the rows k < count of t (a float for every row, or count values), q and dq
-   (count x N each), y (count x ny) into out (count x nout); returns -1 when every row
-   succeeded, else the first failing row */
-static PyObject *rows(PyObject *const *args, Py_ssize_t nargs, kernel f, Py_ssize_t ny,
-                      Py_ssize_t nout) {
-    if (nargs != 6) { PyErr_SetString(PyExc_TypeError, "expected (count, t, q, dq, y, out)"); return NULL; }
-    Py_ssize_t count = PyLong_AsSsize_t(args[0]);
-    if (count < 0) { if (!PyErr_Occurred()) PyErr_SetString(PyExc_ValueError, "count < 0"); return NULL; }
-    int one_t = PyFloat_Check(args[1]);
-    double t0 = one_t ? PyFloat_AS_DOUBLE(args[1]) : 0.0;
-    Py_buffer b[5];
-    PyObject *objects[5] = {args[1], args[2], args[3], args[4], args[5]};
-    Py_ssize_t sizes[5] = {count, count * N, count * N, count * ny, count * nout};
-    int held = 0;
-    for (int i = one_t ? 1 : 0; i < 5; i++, held++)
-        if (buffer(objects[i], &b[i], sizes[i], i == 4) < 0) {
-            for (int j = i - 1; j >= (one_t ? 1 : 0); j--) PyBuffer_Release(&b[j]);
-            return NULL;
-        }
-    const double *t = one_t ? NULL : b[0].buf, *q = b[1].buf, *dq = b[2].buf, *y = b[3].buf;
-    double *o = b[4].buf, x[2 * N];
-    Py_ssize_t failed = -1;
-    for (Py_ssize_t k = 0; k < count; k++) {
-        memcpy(x, q + k * N, sizeof(double) * N);
-        memcpy(x + N, dq + k * N, sizeof(double) * N);
-        if (f(one_t ? t0 : t[k], x, y + k * ny, o + k * nout)) { failed = k; break; }
-    }
-    for (int i = 5 - held; i < 5; i++) PyBuffer_Release(&b[i]);
-    return PyLong_FromSsize_t(failed);
-}
-
-/* py_NAME: anadyn_jacobians_NAME over rows, y rows of ny values, out rows of nout */
-#define WRAP(name, ny, nout) \
-    static PyObject *py_##name(PyObject *self, PyObject *const *args, Py_ssize_t nargs) { \
-        (void)self; return rows(args, nargs, anadyn_jacobians_##name, ny, nout); }
-WRAP(forward, MEFF, N * NK)
-WRAP(inverse, N, 3 * N * N)
-WRAP(dynamics, MEFF, N)
-WRAP(minv, MEFF, N * N)
-#ifdef NPAR
-WRAP(forward_parameters, MEFF, N * NPAR)
-WRAP(inverse_parameters, N, N * NPAR)
-WRAP(closed_parameters, MEFF, N * NPAR)
-#endif
-
-#define METHOD(name, arguments) \
-    {#name, (PyCFunction)(void (*)(void))py_##name, METH_FASTCALL, #name "(count, t, q, dq, " arguments}
-static PyMethodDef methods[] = {
-#ifdef NPAR
-    METHOD(forward_parameters, "tau, out)"),
-    METHOD(inverse_parameters, "ddq, out)"),
-    METHOD(closed_parameters, "tau (unused), out)"),
-#endif
-    METHOD(forward, "tau, out)"),
-    METHOD(inverse, "ddq, out)"),
-    METHOD(dynamics, "tau, out)"),
-    METHOD(minv, "tau (unused), out)"),
-    {NULL, NULL, 0, NULL}};
-
-static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, MODULE_NAME, NULL, -1, methods};
-
-PyMODINIT_FUNC INIT_FUNCTION(void) { return PyModule_Create(&module); }
-#endif
-"""
+#: the fixed part of the C extension: Cholesky over M's structural nonzeros, the
+#: forward dynamics, the forward and inverse derivatives at ``count`` states (rows)
+#: per call, and at one state from NumPy vectors into new arrays (``one_*``)
+C_DRIVER = _template("derivatives_driver.c.in")

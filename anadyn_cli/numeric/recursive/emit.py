@@ -84,7 +84,8 @@ DOCS = {
     "momentum": "[Px, Py, Pz] (kg m/s) and [Lx, Ly, Lz] (kg m^2/s, about the world "
                 "origin) of a free robot, world axes (recursive velocities; vectorized).",
     "contacts": "Per contact: normal force, friction along t1 and t2 (N), penetration (m), "
-                "spring energy (J), dissipated power (W) (numeric.contact; vectorized).",
+                "spring energy (J), dissipated power (W), the contact point's velocity "
+                "along n, t1, t2 (m/s) (numeric.contact; vectorized).",
 }
 
 VECTORIZED = {"efforts", "mfb", "inverse_dynamics", "actuation", "potential", "rates",
@@ -123,6 +124,12 @@ def module_source(gen: Generated, header: str = "") -> str:
         lines.append(f"CONTACTS = {tuple(c.name for c in pl.contacts)!r}")
         laws = tuple((c.stiffness, c.exponent, pl.bodies[c.body].mass) for c in pl.contacts)
         lines.append(f"CONTACT_LAWS = {laws!r}   # stiffness, exponent, the body's mass")
+        if pl.contacts[0].rigid:       # numeric.impacts: e, mu, the bodies, a pair's size
+            rules = tuple((c.restitution, c.friction, tuple(
+                pl.bodies[b].name for b in (c.body, c.partner) if b is not None),
+                c.radius + c.partner_radius if c.partner is not None else 0.0)
+                for c in pl.contacts)
+            lines.append(f"RIGID_CONTACTS = {rules!r}   # e, mu, bodies, radii of a pair")
     if pl.spherical:          # speeds that are not rates: x = [q, u], dq = W(q) u
         lines.append(f"SPEEDS = {tuple(pl.speeds)!r}")
         lines.append(f"QUATERNIONS = {quaternions(pl)!r}")

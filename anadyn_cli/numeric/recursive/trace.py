@@ -202,10 +202,12 @@ def _spherical(pl: Plan) -> dict[str, Traced]:
 
 def trace_contacts(pl: Plan) -> Traced:
     """Per contact (``numeric.contact``): its normal force, the friction along the
-    ground's tangents, the penetration, the spring energy and the dissipated power."""
+    ground's tangents, the penetration, the spring energy, the dissipated power and
+    the contact point's velocity along n, t1, t2."""
     P = Program()
     with P:
-        rows = [[c[key] for key in ("fn", "ft1", "ft2", "depth", "energy", "dissipated")]
+        rows = [[c[key] for key in ("fn", "ft1", "ft2", "depth", "energy", "dissipated",
+                                    "vn", "vt1", "vt2")]
                 for c in contact.traced(Tracer(pl, P))]
     return _finish("contacts", state_args(pl), P, {"C": rows})
 

@@ -38,12 +38,18 @@ class _Writer:
         self.model = model
         self.readable = fits([*model.M, *model.F, *model.B])
         names: dict[sp.Symbol, str] = {TIME: "t"}
-        for c, r, a in zip(model.coordinates, model.rates, model.accelerations):
-            base = sp.latex(sp.Symbol(c.name))
-            head, sep, tail = base.partition("_{")     # q_{1} -> \dot{q}_{1}
-            names[c.symbol] = base
-            names[r.symbol] = rf"\dot{{{head}}}{sep}{tail}"
-            names[a.symbol] = rf"\ddot{{{head}}}{sep}{tail}"
+        for c in model.coordinates:
+            names[c.symbol] = sp.latex(sp.Symbol(c.name))
+        # a coordinate's rate is the coordinate dotted; a speed that is no coordinate's
+        # rate (a spherical joint's) keeps its name, and its rate is that name dotted
+        rates = {f"d{c.name}": names[c.symbol] for c in model.coordinates}
+        for r, a in zip(model.rates, model.accelerations):
+            if r.name in rates:
+                names[r.symbol], names[a.symbol] = dotted(rates[r.name], 1), dotted(
+                    rates[r.name], 2)
+            else:
+                names[r.symbol] = sp.latex(sp.Symbol(r.name))
+                names[a.symbol] = dotted(names[r.symbol], 1)
         self.names = names
 
     def tidy(self, expr: sp.Expr, collect: bool = False) -> sp.Expr:
@@ -94,6 +100,12 @@ class _Writer:
         return " \\\\\n".join(rows)
 
 
+def dotted(base: str, order: int) -> str:
+    """``base`` with ``order`` dots on its head: q_{1} -> \\dot{q}_{1}."""
+    head, sep, tail = base.partition("_{")
+    return rf"\{'d' * order}ot{{{head}}}{sep}{tail}"
+
+
 def _align(rows: list[str]) -> list[str]:
     return [r"\begin{align*}" if not any(r"\tag" in row for row in rows) else r"\begin{align}",
             " \\\\\n".join(rows),
@@ -113,28 +125,47 @@ def body(model: ExportModel) -> list[str]:
                    "significant digits).")
            + " Units are SI: m, kg, s, rad, N, N\\,m.", ""]
     coords = ", ".join(rf"${w.names[c.symbol]}$ ({escape(c.unit)})" for c in model.coordinates)
-    out += [rf"Generalized coordinates: {coords}; their rates and accelerations are written "
-            r"$\dot{q}$, $\ddot{q}$."]
+    if model.kinematic is None:
+        out += [rf"Generalized coordinates: {coords}; their rates and accelerations are "
+                r"written $\dot{q}$, $\ddot{q}$."]
+    else:
+        speeds = ", ".join(rf"${w.names[u.symbol]}$ ({escape(u.unit)})" for u in model.rates)
+        out += [rf"Generalized coordinates $q$: {coords}.  Generalized speeds $u$: {speeds}; "
+                r"their rates are written $\dot{u}$.  A spherical joint's coordinates are a "
+                r"unit quaternion $(q_w, q_x, q_y, q_z)$, scalar first, and its speeds the "
+                r"body's angular velocity relative to its parent in the body's axes; the "
+                r"coordinates' rates follow from the kinematic differential equations "
+                r"$\dot{q} = W(q)\,u$ below."]
     if model.efforts:
         efforts = ", ".join(rf"${sp.latex(e.symbol)}$ ({e.unit.replace('*', '~')})"
                             for e in model.efforts)
         out += [rf"Actuator efforts $\tau$: {efforts}."]
     else:
         out += [r"The robot has no actuators."]
-    out += ["", r"\subsection*{Equations of motion}", "",
-            r"One equation per coordinate, in the form "
-            r"$\sum_s M_{rs}\ddot{q}_s - F_r - \sum_k B_{rk}\tau_k = 0$:", ""]
+    out += ["", r"\subsection*{Equations of motion}", ""]
+    if model.kinematic is None:
+        out += [r"One equation per coordinate, in the form "
+                r"$\sum_s M_{rs}\ddot{q}_s - F_r - \sum_k B_{rk}\tau_k = 0$:", ""]
+    else:
+        out += [r"One equation per speed, in the form "
+                r"$\sum_s M_{rs}\dot{u}_s - F_r - \sum_k B_{rk}\tau_k = 0$:", ""]
     residuals = sp.Matrix(model.M) * sp.Matrix([a.symbol for a in model.accelerations]) \
         - model.F - (model.B * sp.Matrix([e.symbol for e in model.efforts]) if model.m
                      else sp.zeros(model.n, 1))
+    tags = model.coordinates if model.kinematic is None else model.rates
     rows = [w.equation("", w.tidy(residuals[r], collect=True), tag=f"${w.names[c.symbol]}$",
                        right="0")
-            for r, c in enumerate(model.coordinates)]
+            for r, c in enumerate(tags)]
     out += _align(rows)
+    if model.kinematic is not None:
+        out += ["", r"\subsection*{Kinematic differential equations}", ""]
+        out += _align([w.equation(dotted(w.names[c.symbol], 1), w.tidy(rate))
+                       for c, rate in zip(model.coordinates, model.kinematic)])
     out += ["", r"\subsection*{Matrix form}", "",
-            r"$M(q)\,\ddot{q} = F(t, q, \dot{q}) + B(q)\,\tau$, with $M$ symmetric; $F$ holds "
-            r"gravity, the velocity products and any joint forces and loads "
-            r"of the robot file.", ""]
+            (r"$M(q)\,\ddot{q} = F(t, q, \dot{q}) + B(q)\,\tau$" if model.kinematic is None
+             else r"$M(q)\,\dot{u} = F(t, q, u) + B(q)\,\tau$")
+            + r", with $M$ symmetric; $F$ holds gravity, the velocity products and any joint "
+            r"forces and loads of the robot file.", ""]
     rows = []
     for i in range(model.n):
         for j in range(i, model.n):

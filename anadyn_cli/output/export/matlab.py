@@ -2,7 +2,9 @@
 
 Vectors are columns (inputs may be rows or columns); the linear algebra is
 MATLAB's own (M \\ G, pinv).  With symbolic parameters every function takes a
-struct p last, defaulting to NAME_params() (the robot file's values).
+struct p last, defaulting to NAME_params() (the robot file's values).  With a
+spherical joint (x = [q, u], ``ExportModel``) the speeds' arguments are u and du
+and NAME_rates.m (dq = W(q) u) is added.
 """
 from __future__ import annotations
 
@@ -46,8 +48,8 @@ def _names(model: ExportModel) -> dict:
     reserved = MATLAB_KEYWORDS | MATLAB_BUILTINS | ARGUMENTS | {
         f"{model.name}_{s}" for s in ("mass_matrix", "forcing", "input_matrix", "efforts",
                                       "accelerations", "rhs", "jacobian", "inverse", "params",
-                                      "partials")}
-    return local_names(model, reserved)
+                                      "partials", "rates", "rates_jacobian")}
+    return local_names(model, reserved | set(model.arrays))
 
 
 def _help(name: str, summary: str, lines: list[str]) -> list[str]:
@@ -59,7 +61,8 @@ def _help(name: str, summary: str, lines: list[str]) -> list[str]:
 
 def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, str]:
     """One file per function, NAME_*.m; ``note`` hears which one is being generated."""
-    N, n, m = model.name, model.n, model.m
+    N, n, m, nq = model.name, model.n, model.m, model.nq
+    _, dq, ddq = model.arrays
     names = _names(model)
     prefix = temporary_prefix(set(names.values()), "w")
     sym = model.symbolic
@@ -71,7 +74,9 @@ def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, 
     out: dict[str, str] = {}
 
     def default_p(count: int) -> list[str]:
-        return [f"  if nargin < {count}", f"    p = {N}_params();", "  end"] if sym else []
+        if not (sym and count):         # count 0: a function without p
+            return []
+        return [f"  if nargin < {count}", f"    p = {N}_params();", "  end"]
 
     def leaf(fname, outvar, args, summary, doc, matrix, nargs, symmetric=False):
         note(leaf_note({outvar: matrix}))
@@ -106,64 +111,87 @@ def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, 
         "mass_matrix", "M", f"q{P}", "Mass matrix M(q), n x n, symmetric positive definite.",
         [f"M = {N.upper()}_MASS_MATRIX(q{P})"], lower, 2, symmetric=True)
     out[f"{N}_forcing.m"] = leaf(
-        "forcing", "F", f"t, q, dq{P}",
-        "Forcing F(t, q, dq): gravity, velocity products, joint forces and loads (n x 1).",
-        [f"F = {N.upper()}_FORCING(t, q, dq{P})"], model.F, 4)
+        "forcing", "F", f"t, q, {dq}{P}",
+        f"Forcing F(t, q, {dq}): gravity, velocity products, joint forces and loads (n x 1).",
+        [f"F = {N.upper()}_FORCING(t, q, {dq}{P})"], model.F, 4)
     out[f"{N}_input_matrix.m"] = leaf(
         "input_matrix", "B", f"q{P}", "Input matrix B(q), n x m (B tau: generalized forces).",
         [f"B = {N.upper()}_INPUT_MATRIX(q{P})"], model.B, 2)
     out[f"{N}_efforts.m"] = leaf(
-        "efforts", "tau", f"t, q, dq{P}",
+        "efforts", "tau", f"t, q, {dq}{P}",
         "Actuator efforts under the robot file's control laws (m x 1; zeros without).",
-        [f"tau = {N.upper()}_EFFORTS(t, q, dq{P})"], model.laws, 4)
-    partials = leaf("partials", "K", f"t, q, dq, ddq{P}",
-                    "K = [dG/dq - (dM/dq) ddq, dG/d(dq)], G = F + B tau(t, q, dq), n x 2n.",
-                    [], model.K, 5)
+        [f"tau = {N.upper()}_EFFORTS(t, q, {dq}{P})"], model.laws, 4)
+    if model.kinematic is None:
+        partials = leaf("partials", "K", f"t, q, dq, ddq{P}",
+                        "K = [dG/dq - (dM/dq) ddq, dG/d(dq)], G = F + B tau(t, q, dq), n x 2n.",
+                        [], model.K, 5)
+    else:
+        partials = leaf("partials", "K", f"t, q, u, du{P}",
+                        "K = [dG/dq - (dM/dq) du, dG/du], G = F + B tau(t, q, u), "
+                        "n x (nq + n).", [], model.K, 5)
+        partials += ["", *leaf("rates_jacobian", "J", "q, u",
+                               "R = d(W(q) u)/dx, nq x (nq + n).", [], model.R, 0)]
+        out[f"{N}_rates.m"] = leaf(
+            "rates", "dq", "q, u",
+            "Coordinates' rates dq = W(q) u (nq x 1; a quaternion's: 1/2 q (x) (0, w)).",
+            [f"dq = {N.upper()}_RATES(q, u), the kinematic differential equations."],
+            model.kinematic, 0)
     partials = [line for line in partials if not line.startswith("%")]
     out[f"{N}_accelerations.m"] = [
-        f"function ddq = {N}_accelerations(t, q, dq, tau{P})",
+        f"function {ddq} = {N}_accelerations(t, q, {dq}, tau{P})",
         *_help(f"{N}_accelerations",
-               "Accelerations solving M(q) ddq = F(t, q, dq) + B(q) tau (open loop).",
-               [f"ddq = {N.upper()}_ACCELERATIONS(t, q, dq, tau{P}), tau: m efforts."] + common),
+               f"Accelerations solving M(q) {ddq} = F(t, q, {dq}) + B(q) tau (open loop).",
+               [f"{ddq} = {N.upper()}_ACCELERATIONS(t, q, {dq}, tau{P}), tau: m efforts."]
+               + common),
         *default_p(5),
-        f"  ddq = {N}_mass_matrix(q{P}) \\ ({N}_forcing(t, q, dq{P}) + "
+        f"  {ddq} = {N}_mass_matrix(q{P}) \\ ({N}_forcing(t, q, {dq}{P}) + "
         f"{N}_input_matrix(q{P}) * tau(:));",
         "end"]
+    if model.kinematic is None:
+        rhs_doc = ("State derivative dx/dt = [dq; ddq] under the control laws.",
+                   f"dx = {N.upper()}_RHS(t, x{P}), x = [q; dq] (2n x 1); suits ode45 and "
+                   "ode15s (with the Jacobian " + f"{N}_jacobian).")
+        jacobian_doc = ("Analytic Jacobian d(dx/dt)/dx (2n x 2n) under the control laws.",
+                        f"J = {N.upper()}_JACOBIAN(t, x{P}) = [0, I; M^-1 K], K = [dG/dq - "
+                        "(dM/dq) ddq, dG/d(dq)], G = F + B tau(t, q, dq).")
+        rates, rate_rows = "dq", f"zeros({n}), eye({n})"
+    else:
+        rhs_doc = ("State derivative dx/dt = [W(q) u; du] under the control laws.",
+                   f"dx = {N.upper()}_RHS(t, x{P}), x = [q; u] ({nq + n} x 1); suits ode45 "
+                   "and ode15s (with the Jacobian " + f"{N}_jacobian).")
+        jacobian_doc = (f"Analytic Jacobian d(dx/dt)/dx ({nq + n} x {nq + n}) under the control "
+                        "laws.", f"J = {N.upper()}_JACOBIAN(t, x{P}) = [R; M^-1 K], R = "
+                        "d(W(q) u)/dx, K = [dG/dq - (dM/dq) du, dG/du], G = F + B tau(t, q, u).")
+        rates, rate_rows = f"{N}_rates(q, u)", f"{N}_rates_jacobian(q, u)"
+    unpack = ["  x = x(:);", f"  q = x(1:{nq});", f"  {dq} = x({nq + 1}:{nq + n});"]
     out[f"{N}_rhs.m"] = [
         f"function dx = {N}_rhs(t, x{P})",
-        *_help(f"{N}_rhs", "State derivative dx/dt = [dq; ddq] under the control laws.",
-               [f"dx = {N.upper()}_RHS(t, x{P}), x = [q; dq] (2n x 1); suits ode45 and ode15s "
-                "(with the Jacobian " + f"{N}_jacobian)."] + common),
+        *_help(f"{N}_rhs", rhs_doc[0], [rhs_doc[1]] + common),
         *default_p(3),
-        "  x = x(:);",
-        f"  q = x(1:{n});",
-        f"  dq = x({n + 1}:{2 * n});",
-        f"  dx = [dq; {N}_accelerations(t, q, dq, {N}_efforts(t, q, dq{P}){P})];",
+        *unpack,
+        f"  dx = [{rates}; {N}_accelerations(t, q, {dq}, {N}_efforts(t, q, {dq}{P}){P})];",
         "end"]
     out[f"{N}_jacobian.m"] = [
         f"function J = {N}_jacobian(t, x{P})",
-        *_help(f"{N}_jacobian", "Analytic Jacobian d(dx/dt)/dx (2n x 2n) under the control laws.",
-               [f"J = {N.upper()}_JACOBIAN(t, x{P}) = [0, I; M^-1 K], K = [dG/dq - (dM/dq) ddq, "
-                "dG/d(dq)], G = F + B tau(t, q, dq)."] + common),
+        *_help(f"{N}_jacobian", jacobian_doc[0], [jacobian_doc[1]] + common),
         *default_p(3),
-        "  x = x(:);",
-        f"  q = x(1:{n});",
-        f"  dq = x({n + 1}:{2 * n});",
-        f"  ddq = {N}_accelerations(t, q, dq, {N}_efforts(t, q, dq{P}){P});",
-        f"  J = [zeros({n}), eye({n}); {N}_mass_matrix(q{P}) \\ "
-        f"{N}_partials(t, q, dq, ddq{P})];",
+        *unpack,
+        f"  {ddq} = {N}_accelerations(t, q, {dq}, {N}_efforts(t, q, {dq}{P}){P});",
+        f"  J = [{rate_rows}; {N}_mass_matrix(q{P}) \\ "
+        f"{N}_partials(t, q, {dq}, {ddq}{P})];",
         "end", "", *partials]
     solve = ("B \\ r" if n == m else "pinv(B) * r")
-    how = ("tau = B \\ (M ddq - F) (B is square)." if n == m else
-           "tau = pinv(B) (M ddq - F): " + ("least squares, exact only if the motion is feasible."
-                                           if m < n else "the smallest efforts that give ddq."))
+    how = (f"tau = B \\ (M {ddq} - F) (B is square)." if n == m else
+           f"tau = pinv(B) (M {ddq} - F): " + (
+               "least squares, exact only if the motion is feasible." if m < n else
+               f"the smallest efforts that give {ddq}."))
     out[f"{N}_inverse.m"] = [
-        f"function tau = {N}_inverse(t, q, dq, ddq{P})",
-        *_help(f"{N}_inverse", "Inverse dynamics: the efforts that give accelerations ddq.",
-               [f"tau = {N.upper()}_INVERSE(t, q, dq, ddq{P}); " + how] + common),
+        f"function tau = {N}_inverse(t, q, {dq}, {ddq}{P})",
+        *_help(f"{N}_inverse", f"Inverse dynamics: the efforts that give accelerations {ddq}.",
+               [f"tau = {N.upper()}_INVERSE(t, q, {dq}, {ddq}{P}); " + how] + common),
         *default_p(5),
         f"  B = {N}_input_matrix(q{P});",
-        f"  r = {N}_mass_matrix(q{P}) * ddq(:) - {N}_forcing(t, q, dq{P});",
+        f"  r = {N}_mass_matrix(q{P}) * {ddq}(:) - {N}_forcing(t, q, {dq}{P});",
         f"  tau = {solve};" if m else "  tau = zeros(0, 1);",
         "end"]
     if sym:

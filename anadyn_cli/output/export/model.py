@@ -11,6 +11,15 @@ so that the Jacobian of the closed-loop state derivative is
 without inverting M symbolically.  ``ExportModel.build`` derives these once;
 the language modules (``c``, ``python``, ``matlab``, ``latex``) only print.
 
+A robot with a spherical joint (a floating joint is three slides and one) has
+nq coordinates, its unit quaternion (qw, qx, qy, qz) among them, and n < nq
+speeds u, the joint's body-axes angular velocity among them: the state is
+x = [q, u] (nq + n), the equations read M(q) du = F(t, q, u) + B(q) tau, and the
+kinematic differential equations dq = W(q) u (``kinematic``, nq) with their
+Jacobian R = d(W(q) u)/dx (nq x (nq + n)) give the state derivative [W(q) u, du]
+and its Jacobian [[R], [M^-1 K]], K being n x (nq + n).  The generated functions
+then name their speeds ``u`` and the speeds' rates ``du`` (``arrays``).
+
 Names: every robot name (coordinate, parameter, gain) becomes a local
 variable of the generated functions.  ``local_names`` keeps each as it is
 unless it collides with a word the target language reserves or with an
@@ -55,7 +64,7 @@ class ExportModel:
     formulation: str
     symbolic: bool
     coordinates: list[Quantity]
-    rates: list[Quantity]
+    rates: list[Quantity]            # the speeds u: the coordinates' rates but a quaternion's
     accelerations: list[Quantity]
     efforts: list[Quantity]
     parameters: list[Quantity]       # empty unless symbolic
@@ -64,15 +73,31 @@ class ExportModel:
     F: sp.Matrix
     B: sp.Matrix
     laws: sp.Matrix                  # m x 1
-    K: sp.Matrix                     # n x 2n
+    K: sp.Matrix                     # n x (nq + n)
     Q: sp.Matrix | None = None       # joint forces and loads (part of F), when the robot has them
     time_dependent: bool = False
     initial_state: list[float] = field(default_factory=list)   # x(0) = [q0, dq0] of the file
     generator: str = field(default_factory=lambda: f"anadyn {__version__}")
+    #: dq = W(q) u (nq x 1), and R = its Jacobian d(W(q) u)/dx (nq x (nq + n)), when the
+    #: speeds are not the coordinates' rates (a spherical joint); None otherwise
+    kinematic: sp.Matrix | None = None
+    R: sp.Matrix | None = None
 
     @property
     def n(self) -> int:
+        """The number of speeds (of rows of M, F and B)."""
+        return len(self.rates)
+
+    @property
+    def nq(self) -> int:
+        """The number of coordinates: n, or more with a spherical joint's quaternion."""
         return len(self.coordinates)
+
+    @property
+    def arrays(self) -> tuple[str, str, str]:
+        """The generated functions' names of the coordinates, the speeds and their rates:
+        ("q", "dq", "ddq"), or ("q", "u", "du") when the speeds are not rates."""
+        return ("q", "dq", "ddq") if self.kinematic is None else ("q", "u", "du")
 
     @property
     def m(self) -> int:
@@ -84,15 +109,13 @@ class ExportModel:
         """The export model of ``robot`` from its equations ``eom`` (symbolic
         parameters when ``eom.symbolic``; the control laws keep their gains
         as symbols then too)."""
-        robot.refuse_spherical("exports of the closed forms (export --lang c, python, "
-                               "matlab, latex)")
         symbolic = bool(eom.symbolic)
         coordinates = [Quantity(s, s.name, c.unit, i)
                        for i, (s, c) in enumerate(zip(eom.q, robot.coordinates))]
-        rates = [Quantity(s, s.name, c.unit + "/s", i)
-                 for i, (s, c) in enumerate(zip(eom.dq, robot.coordinates))]
-        accelerations = [Quantity(s, s.name, c.unit + "/s^2", i)
-                         for i, (s, c) in enumerate(zip(eom.ddq, robot.coordinates))]
+        rates = [Quantity(s, s.name, u.unit, i)
+                 for i, (s, u) in enumerate(zip(eom.dq, robot.speeds))]
+        accelerations = [Quantity(s, s.name, u.unit + "^2", i)
+                         for i, (s, u) in enumerate(zip(eom.ddq, robot.speeds))]
         efforts = [Quantity(s, s.name, a.unit, i)
                    for i, (s, a) in enumerate(zip(eom.efforts, robot.actuators))]
         laws = control_laws(robot, symbolic)
@@ -123,6 +146,7 @@ class ExportModel:
                 raise ModelError(f"cannot export: {label} depends on "
                                  f"{', '.join(sorted(map(str, stray)))}")
         Q = getattr(eom, "Q", None)
+        kinematic = None if eom.kinematic is None else sp.Matrix(eom.kinematic)
         return cls(name=identifier(robot.name), robot_name=robot.name, source=robot.source,
                    formulation=eom.formulation, symbolic=symbolic, coordinates=coordinates,
                    rates=rates, accelerations=accelerations, efforts=efforts,
@@ -130,7 +154,9 @@ class ExportModel:
                    M=M, F=F, B=B, laws=laws, K=K,
                    Q=sp.Matrix(Q) if Q is not None and any(e != 0 for e in Q) else None,
                    time_dependent=any(TIME in e.free_symbols for e in (*F, *laws)),
-                   initial_state=_initial_state(robot))
+                   initial_state=_initial_state(robot), kinematic=kinematic,
+                   R=None if kinematic is None else kinematic.jacobian(
+                       list(eom.q) + list(eom.dq)))
 
     # -- documentation shared by the languages --------------------------------
     def title(self) -> str:
@@ -142,12 +168,16 @@ class ExportModel:
                 f"{self.generator}.")
 
     def units_lines(self, base: int = 0, left: str = "[", right: str = "]") -> list[str]:
-        """One line per coordinate and per actuator: index (from ``base``), name, unit."""
-        lines = [f"coordinates q (rates dq, accelerations ddq), index from {base}:"]
-        for c in self.coordinates:
-            i = f"{left}{c.index + base}{right}"
-            lines.append(f"  q{i} = {c.name} ({c.unit}); dq{i} = d{c.name} ({c.unit}/s); "
-                         f"ddq{i} = dd{c.name} ({c.unit}/s^2)")
+        """One line per coordinate (and speed) and per actuator: index (from ``base``),
+        name, unit; with a spherical joint, the conventions of x = [q, u] too."""
+        if self.kinematic is None:
+            lines = [f"coordinates q (rates dq, accelerations ddq), index from {base}:"]
+            for c in self.coordinates:
+                i = f"{left}{c.index + base}{right}"
+                lines.append(f"  q{i} = {c.name} ({c.unit}); dq{i} = d{c.name} ({c.unit}/s); "
+                             f"ddq{i} = dd{c.name} ({c.unit}/s^2)")
+        else:
+            lines = self.speed_lines(base, left, right)
         if self.efforts:
             lines.append(f"actuator efforts tau, index from {base}:")
             for e in self.efforts:
@@ -155,11 +185,39 @@ class ExportModel:
                 lines.append(f"  tau{left}{e.index + base}{right} = {e.name} ({e.unit}, {what})")
         else:
             lines.append("actuator efforts tau: none (m = 0; B has no columns)")
-        lines.append("row r of M ddq, F and B tau is a generalized force along q_r: N*m for "
-                     "an angle, N for a length; time t in s.")
+        if self.kinematic is None:
+            lines.append("row r of M ddq, F and B tau is a generalized force along q_r: N*m "
+                         "for an angle, N for a length; time t in s.")
+        else:
+            lines.append("row r of M du, F and B tau is a generalized force along u_r: N*m "
+                         "for an angular speed, N for a linear one; time t in s.")
         if self.time_dependent:
             lines.append("F or the control laws depend on time t explicitly.")
         return lines
+
+    def speed_lines(self, base: int, left: str, right: str) -> list[str]:
+        """The coordinates, the speeds and the conventions of x = [q, u] (a spherical
+        joint: its quaternion, its body-axes angular velocity, dq = W(q) u)."""
+        lines = [f"x = [q, u]: nq = {self.nq} coordinates q, then n = {self.n} speeds u "
+                 "(not all of them coordinate rates).",
+                 "Each spherical joint's coordinates are a unit quaternion (qw, qx, qy, qz), "
+                 "scalar first, the body's attitude in its joint frame; its speeds "
+                 "(wx, wy, wz) are the body's angular velocity relative to its parent in the "
+                 "body's own axes (rad/s).  A floating joint is three slides (x, y, z: the "
+                 "body's origin in the joint frame, the world for a base; their speeds its "
+                 "velocity in that frame, m/s) and a spherical joint.",
+                 "The kinematic differential equations dq = W(q) u give the coordinates' "
+                 "rates: a slide's or a turn's is its speed, a quaternion's is "
+                 "1/2 q (x) (0, w) (Hamilton product).  The dynamics do not depend on a "
+                 "quaternion's norm; make it unit again now and then when integrating.",
+                 f"coordinates q, index from {base}:"]
+        lines += [f"  q{left}{c.index + base}{right} = {c.name} ({c.unit})"
+                  for c in self.coordinates]
+        lines.append(f"speeds u (their rates du), index from {base}:")
+        lines += [f"  u{left}{u.index + base}{right} = {u.name} ({u.unit}); "
+                  f"du{left}{u.index + base}{right} = {a.name} ({a.unit})"
+                  for u, a in zip(self.rates, self.accelerations)]
+        return wrap(lines, 88)
 
     def law_lines(self) -> list[str]:
         if not self.efforts:
@@ -184,9 +242,10 @@ class ExportModel:
 
 
 def _initial_state(robot: Robot) -> list[float]:
+    """x(0) = [q(0), u(0)] of the robot file."""
     values = robot.parameter_substitution()
     return ([float(c.initial.xreplace(values)) for c in robot.coordinates]
-            + [float(c.rate.xreplace(values)) for c in robot.coordinates])
+            + [float(u.initial.xreplace(values)) for u in robot.speeds])
 
 
 def identifier(name: str, limit: int = MATLAB_NAME_MAX - len(LONGEST_SUFFIX)) -> str:
@@ -271,11 +330,12 @@ class Block:
 
 def inputs_used(model: "ExportModel", names: dict, blk: Block):
     """What ``blk`` reads, in order: (local name, array, 0-based index) of the
-    coordinates (array "q"), rates ("dq") and accelerations ("ddq"), and (local
-    name, Quantity) of the parameters; each exporter writes their unpacking."""
+    coordinates (array "q"), speeds ("dq" or "u": ``ExportModel.arrays``) and their
+    rates ("ddq" or "du"), and (local name, Quantity) of the parameters; each
+    exporter writes their unpacking."""
     states = [(names[quantity.symbol], array, quantity.index)
-              for group, array in ((model.coordinates, "q"), (model.rates, "dq"),
-                                   (model.accelerations, "ddq"))
+              for group, array in zip((model.coordinates, model.rates, model.accelerations),
+                                      model.arrays)
               for quantity in group if names[quantity.symbol] in blk.used]
     parameters = [(names[par.symbol], par) for par in model.parameters
                   if names[par.symbol] in blk.used]

@@ -5,7 +5,8 @@ lists (matrices as lists of rows), so ``numpy.array(...)`` turns them into
 arrays when NumPy is at hand.  The equations' functions are generated with
 common subexpressions eliminated, on ``math``; the linear algebra is a
 Cholesky factorization of M and a one-sided Jacobi SVD for B's pseudo-inverse,
-in plain Python.
+in plain Python.  With a spherical joint (x = [q, u], ``ExportModel``) the speeds'
+arguments are ``u`` and ``du`` and ``rates(q, u)`` (dq = W(q) u) is added.
 """
 from __future__ import annotations
 
@@ -42,30 +43,48 @@ def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, 
 
 def _doc(model: ExportModel) -> str:
     n, m = model.n, model.m
-    names = [c.name for c in model.coordinates]
-    lines = [f"{model.name}.py -- {model.title()}", "",
-             "    M(q) ddq = F(t, q, dq) + B(q) tau,   state x = [q, dq] = "
-             f"[{', '.join(names + ['d' + c for c in names])}]", "",
-             f"n = {n} coordinates, m = {m} actuator efforts.  Needs only the standard library "
-             "(math).", "Arguments are sequences of floats (lists, tuples or NumPy arrays); "
-             "results are lists,", "matrices as lists of rows.", "",
-             *model.units_lines(), "", *model.law_lines(), "", *model.parameter_lines(), ""]
+    _, dq, ddq = model.arrays
+    names = [c.name for c in model.coordinates] + [u.name for u in model.rates]
+    if model.kinematic is None:
+        lines = [f"{model.name}.py -- {model.title()}", "",
+                 "    M(q) ddq = F(t, q, dq) + B(q) tau,   state x = [q, dq] = "
+                 f"[{', '.join(names)}]", "",
+                 f"n = {n} coordinates, m = {m} actuator efforts.  Needs only the standard "
+                 "library (math)."]
+    else:
+        lines = [f"{model.name}.py -- {model.title()}", "",
+                 "    M(q) du = F(t, q, u) + B(q) tau,   dq = W(q) u,", "",
+                 f"    state x = [q, u] = [{', '.join(names)}]", "",
+                 f"nq = {model.nq} coordinates, n = {n} speeds, m = {m} actuator efforts.  "
+                 "Needs only the", "standard library (math)."]
+    lines += ["Arguments are sequences of floats (lists, tuples or NumPy arrays); "
+              "results are lists,", "matrices as lists of rows.", "",
+              *model.units_lines(), "", *model.law_lines(), "", *model.parameter_lines(), ""]
     if model.symbolic:
         lines += ["Every function takes the parameters last, p: a mapping name -> value "
                   "(default", "PARAMETERS, the robot file's values).", ""]
     p = ", p" if model.symbolic else ""
     lines += ["Functions:",
               f"    mass_matrix(q{p})                 M, n x n, symmetric positive definite",
-              f"    forcing(t, q, dq{p})              F, n: gravity, velocity products, joint "
+              f"    forcing(t, q, {dq}{p})              F, n: gravity, velocity products, joint "
               "forces, loads",
               f"    input_matrix(q{p})                B, n x m",
-              f"    efforts(t, q, dq{p})              tau under the file's control laws (zeros "
-              "without)",
-              f"    accelerations(t, q, dq, tau{p})   ddq solving M ddq = F + B tau (open loop)",
-              f"    rhs(t, x{p})                      dx/dt = [dq, ddq] under the control laws",
-              f"    jacobian(t, x{p})                 d(dx/dt)/dx, 2n x 2n, analytic",
-              f"    inverse(t, q, dq, ddq{p})         tau = pinv(B) (M ddq - F): the efforts for "
-              "ddq",
+              f"    efforts(t, q, {dq}{p})              tau under the file's control laws (zeros "
+              "without)"]
+    if model.kinematic is None:
+        lines += [
+            f"    accelerations(t, q, dq, tau{p})   ddq solving M ddq = F + B tau (open loop)",
+            f"    rhs(t, x{p})                      dx/dt = [dq, ddq] under the control laws",
+            f"    jacobian(t, x{p})                 d(dx/dt)/dx, 2n x 2n, analytic"]
+    else:
+        lines += [
+            "    rates(q, u)                      dq = W(q) u, nq: the kinematic differential "
+            "equations",
+            f"    accelerations(t, q, u, tau{p})    du solving M du = F + B tau (open loop)",
+            f"    rhs(t, x{p})                      dx/dt = [W(q) u, du] under the control laws",
+            f"    jacobian(t, x{p})                 d(dx/dt)/dx, (nq + n) x (nq + n), analytic"]
+    lines += [f"    inverse(t, q, {dq}, {ddq}{p})         tau = pinv(B) (M {ddq} - F): the "
+              f"efforts for {ddq}",
               "ValueError when M is not positive definite.  rhs(t, x) suits "
               "scipy.integrate.solve_ivp."]
     if m and m < n:
@@ -73,7 +92,7 @@ def _doc(model: ExportModel) -> str:
                      "exact only if the motion is feasible.")
     elif m > n:
         lines.append("B is not square (m > n): inverse() gives the smallest efforts that "
-                     "produce ddq.")
+                     f"produce {ddq}.")
     return "\n".join(lines)
 
 
@@ -101,8 +120,9 @@ def _leaf(model: ExportModel, names: dict, prefix: str, name: str, args: str, do
 
 
 def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
-    n, m = model.n, model.m
-    names = local_names(model, RESERVED)
+    n, m, nq = model.n, model.m, model.nq
+    _, dq, ddq = model.arrays
+    names = local_names(model, RESERVED | set(model.arrays))
     prefix = temporary_prefix(set(names.values()), "_w")
     p = ", p=PARAMETERS" if model.symbolic else ""
     pp = ", p" if model.symbolic else ""
@@ -113,53 +133,93 @@ def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
              f"UNITS = {tuple(c.unit for c in model.coordinates)!r}",
              f"EFFORTS = {tuple(e.name for e in model.efforts)!r}",
              f"EFFORT_UNITS = {tuple(e.unit for e in model.efforts)!r}",
-             f"N_COORDINATES = {n}", f"N_EFFORTS = {m}",
-             f"INITIAL_STATE = {model.initial_state!r}     # x(0) = [q, dq] of the robot file"]
+             *([f"SPEEDS = {tuple(u.name for u in model.rates)!r}",
+                f"SPEED_UNITS = {tuple(u.unit for u in model.rates)!r}"]
+               if model.kinematic is not None else []),
+             f"N_COORDINATES = {nq}",
+             *([f"N_SPEEDS = {n}"] if model.kinematic is not None else []),
+             f"N_EFFORTS = {m}",
+             f"INITIAL_STATE = {model.initial_state!r}     # x(0) = [q, {dq}] of the robot file"]
     if model.symbolic:
         lines.append("PARAMETERS = {" + ", ".join(f"{q.name!r}: {q.value!r}"
                                                   for q in model.parameters) + "}")
     lines += ["", ""]
-    for name, args, doc, key, matrix, shape in (
-            ("mass_matrix", "q", "M(q): mass matrix, n x n (list of rows), symmetric positive "
-             "definite.", "M", model.M, "matrix"),
-            ("forcing", "t, q, dq", "F(t, q, dq): gravity, velocity products, joint forces and "
-             "loads (n).", "F", model.F, "vector"),
-            ("input_matrix", "q", "B(q): input matrix, n x m (list of rows).", "B", model.B,
-             "matrix"),
-            ("efforts", "t, q, dq", "tau(t, q, dq): actuator efforts under the robot file's "
-             "control laws (m).", "tau", model.laws, "vector"),
-            ("_partials", "t, q, dq, ddq", "K = [dG/dq - (dM/dq) ddq | dG/d(dq)], G = F + B "
-             "tau(t, q, dq): n x 2n.", "K", model.K, "matrix")):
+    leaves = [
+        ("mass_matrix", "q", "M(q): mass matrix, n x n (list of rows), symmetric positive "
+         "definite.", "M", model.M, "matrix"),
+        ("forcing", f"t, q, {dq}", f"F(t, q, {dq}): gravity, velocity products, joint forces "
+         "and loads (n).", "F", model.F, "vector"),
+        ("input_matrix", "q", "B(q): input matrix, n x m (list of rows).", "B", model.B,
+         "matrix"),
+        ("efforts", f"t, q, {dq}", f"tau(t, q, {dq}): actuator efforts under the robot file's "
+         "control laws (m).", "tau", model.laws, "vector")]
+    if model.kinematic is None:
+        leaves.append(("_partials", "t, q, dq, ddq", "K = [dG/dq - (dM/dq) ddq | dG/d(dq)], "
+                       "G = F + B tau(t, q, dq): n x 2n.", "K", model.K, "matrix"))
+    else:
+        leaves += [
+            ("_partials", "t, q, u, du", "K = [dG/dq - (dM/dq) du | dG/du], G = F + B "
+             "tau(t, q, u): n x (nq + n).", "K", model.K, "matrix"),
+            ("rates", "q, u", "dq = W(q) u: the coordinates' rates (nq; a quaternion's: "
+             "1/2 q (x) (0, w)).", "dq", model.kinematic, "vector"),
+            ("_rates_jacobian", "q, u", "R = d(W(q) u)/dx: nq x (nq + n), the coordinates' "
+             "rows of the state Jacobian.", "R", model.R, "matrix")]
+    for name, args, doc, key, matrix, shape in leaves:
         note(leaf_note({key: matrix}))
-        lines += _leaf(model, names, prefix, name, f"{args}{p}", doc, {key: matrix},
+        extra = p if name not in ("rates", "_rates_jacobian") else ""
+        lines += _leaf(model, names, prefix, name, f"{args}{extra}", doc, {key: matrix},
                        {key: shape}) + ["", ""]
-    lines += textwrap.dedent(f'''\
-        def accelerations(t, q, dq, tau{p}):
-            """ddq solving M(q) ddq = F(t, q, dq) + B(q) tau for the given efforts tau."""
-            return _solve(t, q, dq, tau{pp})[0]
+    if model.kinematic is None:
+        lines += textwrap.dedent(f'''\
+            def accelerations(t, q, dq, tau{p}):
+                """ddq solving M(q) ddq = F(t, q, dq) + B(q) tau for the given efforts tau."""
+                return _solve(t, q, dq, tau{pp})[0]
 
 
-        def rhs(t, x{p}):
-            """dx/dt = [dq, ddq] at x = [q, dq] under the control laws."""
-            q, dq = x[:{n}], x[{n}:{2 * n}]
-            return [float(v) for v in dq] + _solve(t, q, dq, efforts(t, q, dq{pp}){pp})[0]
+            def rhs(t, x{p}):
+                """dx/dt = [dq, ddq] at x = [q, dq] under the control laws."""
+                q, dq = x[:{n}], x[{n}:{2 * n}]
+                return [float(v) for v in dq] + _solve(t, q, dq, efforts(t, q, dq{pp}){pp})[0]
 
 
-        def jacobian(t, x{p}):
-            """d(dx/dt)/dx at x = [q, dq] under the control laws: [[0, I], [M^-1 K]], 2n x 2n."""
-            q, dq = x[:{n}], x[{n}:{2 * n}]
-            ddq, L = _solve(t, q, dq, efforts(t, q, dq{pp}){pp})
-            K = _partials(t, q, dq, ddq{pp})
-            columns = [_cholesky_solve(L, [row[j] for row in K]) for j in range({2 * n})]
-            top = [[1.0 if j == {n} + i else 0.0 for j in range({2 * n})] for i in range({n})]
-            return top + [[columns[j][i] for j in range({2 * n})] for i in range({n})]
+            def jacobian(t, x{p}):
+                """d(dx/dt)/dx at x = [q, dq] under the control laws: [[0, I], [M^-1 K]], 2n x 2n."""
+                q, dq = x[:{n}], x[{n}:{2 * n}]
+                ddq, L = _solve(t, q, dq, efforts(t, q, dq{pp}){pp})
+                K = _partials(t, q, dq, ddq{pp})
+                columns = [_cholesky_solve(L, [row[j] for row in K]) for j in range({2 * n})]
+                top = [[1.0 if j == {n} + i else 0.0 for j in range({2 * n})] for i in range({n})]
+                return top + [[columns[j][i] for j in range({2 * n})] for i in range({n})]
+            ''').splitlines()
+    else:
+        lines += textwrap.dedent(f'''\
+            def accelerations(t, q, u, tau{p}):
+                """du solving M(q) du = F(t, q, u) + B(q) tau for the given efforts tau."""
+                return _solve(t, q, u, tau{pp})[0]
 
 
-        def inverse(t, q, dq, ddq{p}):
-            """Efforts tau = pinv(B) (M ddq - F) that give accelerations ddq at (t, q, dq)."""
+            def rhs(t, x{p}):
+                """dx/dt = [W(q) u, du] at x = [q, u] under the control laws."""
+                q, u = x[:{nq}], x[{nq}:{nq + n}]
+                return rates(q, u) + _solve(t, q, u, efforts(t, q, u{pp}){pp})[0]
+
+
+            def jacobian(t, x{p}):
+                """d(dx/dt)/dx at x = [q, u] under the control laws: [[R], [M^-1 K]],
+                R = d(W(q) u)/dx, {nq + n} x {nq + n}."""
+                q, u = x[:{nq}], x[{nq}:{nq + n}]
+                du, L = _solve(t, q, u, efforts(t, q, u{pp}){pp})
+                K = _partials(t, q, u, du{pp})
+                columns = [_cholesky_solve(L, [row[j] for row in K]) for j in range({nq + n})]
+                return _rates_jacobian(q, u) + [[columns[j][i] for j in range({nq + n})]
+                                                for i in range({n})]
+            ''').splitlines()
+    lines += ["", ""] + textwrap.dedent(f'''\
+        def inverse(t, q, {dq}, {ddq}{p}):
+            """Efforts tau = pinv(B) (M {ddq} - F) that give accelerations {ddq} at (t, q, {dq})."""
             M = mass_matrix(q{pp})
-            F = forcing(t, q, dq{pp})
-            r = [sum(M[i][j] * ddq[j] for j in range({n})) - F[i] for i in range({n})]
+            F = forcing(t, q, {dq}{pp})
+            r = [sum(M[i][j] * {ddq}[j] for j in range({n})) - F[i] for i in range({n})]
             return _pseudo_solve(input_matrix(q{pp}), r)
 
 
@@ -242,6 +302,6 @@ def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
     lines += ["", "", 'if __name__ == "__main__":',
               "    x = INITIAL_STATE",
               '    print("robot", NAME, "at x =", x)',
-              f"    print(\"M =\", mass_matrix(x[:{n}]))",
+              f"    print(\"M =\", mass_matrix(x[:{nq}]))",
               "    print(\"dx/dt =\", rhs(0.0, x))", ""]
     return "\n".join(lines)

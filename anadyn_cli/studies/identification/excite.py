@@ -160,7 +160,8 @@ def excite(model: ParametricModel, base: BaseParameters | None = None, period: f
         SVD of the stacked regressor; the result's condition number is the SVD's)."""
         Y = evaluate(x)[3]
         eigenvalues = np.linalg.eigvalsh(np.einsum("ij,ik->jk", Y, Y))
-        return 0.5 * math.log(eigenvalues[-1] / max(eigenvalues[0], 1e-300))
+        return 0.5 * (math.log(max(eigenvalues[-1], 1e-300))      # no overflow where
+                      - math.log(max(eigenvalues[0], 1e-300)))     # the Gram is singular
 
     def constraints(x):
         theta, rate, efforts, _ = evaluate(x)
