@@ -220,7 +220,7 @@ def test_base_wrench_and_efforts_match_pinocchios_free_flyer_rnea():
     free, columns = service.free_rows(model, B)
     assert [name for name, _ in columns] == [f"base_link_{p}" for p in
                                              ("fx", "fy", "fz", "mx", "my", "mz")]
-    tau, wrench = service.InverseDynamics(model, None, free).split(demand, B)
+    tau, wrench = service.InverseDynamics(model, None, free).apportion(demand, B)
     data = pin_model.createData()
     worst = 0.0
     for k in range(len(q)):

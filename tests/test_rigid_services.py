@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import json
 import math
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -19,29 +21,18 @@ from anadyn_cli.model import robot_from_text
 from anadyn_cli.numeric.build import numeric_model
 from anadyn_cli.services import accuracy
 
-G = 9.81
-M, R, H0 = 1.0, 0.1, 1.0
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_contact import G, _drop as compliant_drop  # noqa: E402
+
+M, R, H0 = 1.0, 0.1, 1.0          # test_contact's ball, dropped from 1 m
 
 
 def drop(e: float, extra: str = "", t_end: float = 1.2) -> str:
-    return f"""
-name: drop
-parameters: {{m: {M}, r: {R}}}
-gravity: [0, 0, -{G}]
-coordinates:
-  z: {{initial: {H0 + R}}}
-bodies:
-  - name: ball
-    joint: {{type: prismatic, axis: [0, 0, 1], displacement: z}}
-    mass: m
-    inertia: {{ixx: 0.004, iyy: 0.004, izz: 0.004}}
-contacts:
-  model: rigid
-  restitution: {e}
-  geometry:
-    - {{name: floor, body: ball, radius: r}}
-simulation: {{t_end: {t_end}, output_step: 0.001}}
-{extra}"""
+    """test_contact's ball (m = 1 kg, r = 0.1 m) on its vertical slide, dropped from H0
+    onto a rigid floor with restitution ``e``."""
+    return compliant_drop(height=H0 + R, extra=(
+        f"simulation: {{t_end: {t_end}, output_step: 0.001}}\n{extra}")).replace(
+        "stiffness: 1000000.0\n  damping: 0.0", f"model: rigid\n  restitution: {e}")
 
 
 def touchdowns(e: float, count: int) -> list[float]:
@@ -112,3 +103,75 @@ def test_accuracy_scores_the_located_events_against_the_reference():
     runs("DOP853", 1e-12, 1e-14)
     hits = [ev["t"] for ev in runs.events[("DOP853", 1e-12)] if ev["event"] == "touch-down"]
     assert hits == pytest.approx([t for t in touchdowns(e, 10) if t <= 1.0], abs=1e-9)
+
+
+# -- static and kinetic friction (the rigid model's static_friction) -------------------
+def block(load: str, static: float, kinetic: float) -> str:
+    """A 1 kg block resting on the floor (slides x and z), pushed along x by ``load``."""
+    return f"""
+name: block
+parameters: {{m: 1.0}}
+gravity: [0, 0, -{G}]
+coordinates: {{x: {{}}, z: {{}}}}
+bodies:
+  - {{name: slide_x, joint: {{type: prismatic, axis: [1, 0, 0], displacement: x}}, mass: 0}}
+  - name: block
+    parent: slide_x
+    joint: {{type: prismatic, axis: [0, 0, 1], displacement: z}}
+    mass: m
+    inertia: {{ixx: 0.01, iyy: 0.01, izz: 0.01}}
+loads:
+  - {{body: block, force: {load}}}
+contacts:
+  model: rigid
+  friction: {kinetic}
+  static_friction: {static}
+  geometry:
+    - {{name: sole, body: block}}
+simulation: {{t_end: 6, output_step: 0.01}}
+"""
+
+
+def test_a_growing_push_breaks_static_friction_then_slides_against_kinetic():
+    """Under a push k t the block sticks until k t = mu_s m g, then slides with friction
+    mu_k m g: x = k (t - ts)^3 / 6 + (mu_s - mu_k) g (t - ts)^2 / 2 (m = 1)."""
+    from anadyn_cli.services.simulate import simulate
+
+    k, static, kinetic = 2.0, 0.6, 0.4
+    model = numeric_model(robot_from_text(block("[2*t, 0, 0]", static, kinetic), "b.yaml"))
+    result = simulate(model, rtol=1e-11, atol=1e-13)
+    (event,) = result.contacts.located
+    start = static * G / k
+    assert event["event"] == "slip" and event["t"] == pytest.approx(start, abs=1e-8)
+    s = (result.t - start).clip(min=0)
+    expected = k * s ** 3 / 6 + (static - kinetic) * G * s ** 2 / 2
+    assert abs(result.x[:, 0] - expected).max() < 1e-8
+    friction = result.contacts.values[0, 1]
+    sliding = result.t > start + 1e-6
+    assert abs(friction[sliding] + kinetic * G).max() < 1e-9        # -mu_k m g along x
+    assert abs(friction[~sliding] + k * result.t[~sliding]).max() < 1e-9   # holds k t
+
+
+def test_a_push_between_the_two_coefficients_moves_nothing_from_rest():
+    """A constant push of 0.5 m g: above mu_k m g but below mu_s m g, the block at rest
+    stays at rest (static friction holds it)."""
+    from anadyn_cli.services.simulate import simulate
+
+    model = numeric_model(robot_from_text(block(f"[{0.5 * G}, 0, 0]", 0.6, 0.4), "b.yaml"))
+    result = simulate(model, rtol=1e-11, atol=1e-13, t_end=2.0)
+    assert result.contacts.located == [] and abs(result.x[:, 0]).max() < 1e-10
+
+
+@pytest.mark.parametrize("change, message", [
+    (("static_friction: 0.6", "static_friction: 0.3"),
+     "must be at least friction (0.4, the kinetic coefficient), got 0.3"),
+    (("model: rigid", "model: compliant\n  stiffness: 1e6"),
+     "static_friction belongs to the rigid contact model"),
+])
+def test_static_friction_is_checked_in_one_line(tmp_path, capsys, change, message):
+    scene = tmp_path / "block.yaml"
+    scene.write_text(block("[0, 0, 0]", 0.6, 0.4).replace(*change))
+    assert main(["simulate", str(scene), "--no-plot", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and message in err and "static_friction" in err
+    assert not (tmp_path / "o").exists()

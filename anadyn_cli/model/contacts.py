@@ -51,13 +51,16 @@ class ContactLaw:
     (stiffness N/m^exponent, damping s/m: c_d = 1.5 alpha k for Hunt and Crossley's
     alpha) and regularized Coulomb friction mu f_n tanh(|v_t| / friction_velocity)
     (one coefficient: static and kinetic equal); ``restitution`` e in [0, 1], the rigid
-    model's Newton coefficient (normal speed after an impact = -e times before)."""
+    model's Newton coefficient (normal speed after an impact = -e times before), and its
+    ``static_friction`` mu_s >= mu (default mu): a contact sticks while |f_t| <= mu_s
+    f_n and slides against f_t = mu f_n (``friction``, kinetic there)."""
     stiffness: sp.Expr
     damping: sp.Expr
     exponent: sp.Expr
     friction: sp.Expr
     friction_velocity: sp.Expr
     restitution: sp.Expr
+    static_friction: sp.Expr          # the rigid model's: sticking holds while |f_t| <= it f_n
 
 
 @dataclass(frozen=True)

@@ -70,6 +70,7 @@ class ContactPlan:
     partner_radius: float = 0.0
     spans: list[list[float]] = field(default_factory=list)   # body axes (``_nearest``)
     restitution: float = 0.0             # the rigid model's (``numeric.impacts``)
+    static_friction: float = 0.0         # the rigid model's sticking limit (>= friction)
     rigid: bool = False                  # rigid: no force traced, only the kinematics
 
 
@@ -103,7 +104,8 @@ def contact_plans(robot, number, index: dict[str, int]) -> list[ContactPlan]:
             number(law.friction), number(law.friction_velocity),
             *((index[pair.body], [number(x) for x in pair.point], number(pair.radius))
               if pair else ()), spans=[[number(x) for x in e] for e in c.spans],
-            restitution=number(law.restitution), rigid=robot.contacts.model == "rigid"))
+            restitution=number(law.restitution), rigid=robot.contacts.model == "rigid",
+            static_friction=number(law.static_friction)))
     return out
 
 

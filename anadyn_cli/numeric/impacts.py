@@ -151,7 +151,8 @@ class Rigid:
         self.model, self.n, self.nq = model, model.n, model.nq
         self.names = model.contact_names
         self.e = np.array([r[0] for r in model.rigid_contacts], dtype=float)
-        self.mu = np.array([r[1] for r in model.rigid_contacts], dtype=float)
+        self.mu = np.array([r[1] for r in model.rigid_contacts], dtype=float)   # kinetic
+        self.mu_s = np.array([r[4] for r in model.rigid_contacts], dtype=float)  # static
         self.bodies = [tuple(r[2]) for r in model.rigid_contacts]
         self.size = np.array([r[3] for r in model.rigid_contacts], dtype=float)
         self.calls = 0
@@ -251,9 +252,9 @@ class Rigid:
                 continue
             out.append(self._event(mode, lambda f, k, c=c: f[c, 0], c, "lift-off", t0, y0))
             if state == STICK:
-                out.append(self._event(mode, lambda f, k, c=c: self.mu[c] * f[c, 0]
+                out.append(self._event(mode, lambda f, k, c=c: self.mu_s[c] * f[c, 0]
                                        - math.hypot(*f[c, 1:]), c, "slip", t0, y0))
-            elif self.mu[c]:
+            elif self.mu_s[c]:
                 out.append(self._event(mode, lambda f, k, c=c: float(mode.slip[c] @ k.vt[c]),
                                        c, "stick", t0, y0, SPEED))
         return out
@@ -293,7 +294,7 @@ class Rigid:
             target[c] = rebound if rebound > SPEED else 0.0
         best = None
         for closed in _subsets(touching):
-            states = [STICK if c in closed and self.mu[c] else SLIDE if c in closed else OPEN
+            states = [STICK if c in closed and self.mu_s[c] else SLIDE if c in closed else OPEN
                       for c in range(len(self.names))]
             mode = Mode(states)
             for _ in range(len(closed) + 1):
@@ -303,7 +304,7 @@ class Rigid:
                 lam = np.linalg.lstsq(A @ Y, goal - A @ u, rcond=1e-12)[0]
                 impulses = self.forces(kin, mode, who, lam)
                 outside = [c for c in closed if mode.states[c] == STICK and
-                           math.hypot(*impulses[c, 1:]) > self.mu[c] * impulses[c, 0]]
+                           math.hypot(*impulses[c, 1:]) > self.mu_s[c] * impulses[c, 0]]
                 if not outside:
                     break
                 c = outside[0]
@@ -343,7 +344,7 @@ class Rigid:
             mode = Mode([OPEN] * len(self.names))
             for c in closed:
                 slow = np.hypot(*kin.vt[c]) <= SPEED
-                if not self.mu[c]:
+                if not self.mu_s[c]:
                     mode.states[c] = SLIDE
                 elif slow and hints.get(c) != "slip":
                     mode.states[c] = STICK
@@ -374,7 +375,7 @@ class Rigid:
                                     else np.array([1.0, 0.0]))
             dx, forces, _, _ = self.solve(t, x, mode)
             outside = [c for c in closed if mode.states[c] == STICK and
-                       math.hypot(*forces[c, 1:]) > self.mu[c] * forces[c, 0]]
+                       math.hypot(*forces[c, 1:]) > self.mu_s[c] * forces[c, 0]]
             if not outside:
                 break
             c = outside[0]

@@ -50,11 +50,12 @@ from .cursor import Cursor
 
 #: the law's keys, with their units; given in the section (every contact) or per contact
 LAW_KEYS = {"stiffness": "N/m^exponent", "damping": "s/m", "exponent": "",
-            "friction": "", "friction_velocity": "m/s", "restitution": ""}
+            "friction": "", "friction_velocity": "m/s", "restitution": "",
+            "static_friction": ""}
 #: the keys each contact model takes (the others' are refused)
 MODEL_KEYS = {"compliant": ("stiffness", "damping", "exponent", "friction",
                             "friction_velocity"),
-              "rigid": ("friction", "restitution")}
+              "rigid": ("friction", "static_friction", "restitution")}
 SECTION_KEYS = ("model", "ground", *LAW_KEYS, "geometry")
 #: the geometries' shapes -> the keys that place and size them (the first ones required)
 SHAPES = {"point": ((), ("point",)), "sphere": (("radius",), ("point",)),
@@ -215,6 +216,7 @@ class _Contacts:
                                       "friction": sp.Integer(0), "restitution": sp.Integer(0),
                                       "exponent": sp.Float(DEFAULT_EXPONENT),
                                       "friction_velocity": sp.Float(DEFAULT_FRICTION_VELOCITY)}
+        numbers: dict[str, float] = {}
         for key, cursor in given.items():
             expr = self.constant(cursor)
             value = self.check_numeric(cursor, expr)
@@ -225,6 +227,9 @@ class _Contacts:
                 raise cursor.error(
                     "restitution belongs to the rigid contact model (model: rigid); the "
                     "compliant model loses energy through its damping" if key == "restitution"
+                    else "static_friction belongs to the rigid contact model (model: rigid); "
+                    "the compliant model's regularized friction has one coefficient, "
+                    "friction" if key == "static_friction"
                     else f"the rigid contact model has no {key}: contact is a constraint "
                     "there (the compliant model takes it)")
             if key == "exponent" and value < 1:
@@ -235,5 +240,13 @@ class _Contacts:
                                    f"is smoothed, m/s), got {value:g}")
             if value < 0:
                 raise cursor.error(f"must be 0 or positive{unit}, got {value:g}")
-            values[key] = expr
+            values[key], numbers[key] = expr, value
+        if "static_friction" in given:            # sticking needs at least sliding's mu
+            static, kinetic = (numbers.get(k, 0.0) for k in ("static_friction", "friction"))
+            if static < kinetic:
+                raise given["static_friction"].error(
+                    f"must be at least friction ({kinetic:g}, the kinetic coefficient), got "
+                    f"{static:g}")
+        else:
+            values["static_friction"] = values["friction"]
         return ContactLaw(**values)

@@ -127,9 +127,10 @@ def module_source(gen: Generated, header: str = "") -> str:
         if pl.contacts[0].rigid:       # numeric.impacts: e, mu, the bodies, a pair's size
             rules = tuple((c.restitution, c.friction, tuple(
                 pl.bodies[b].name for b in (c.body, c.partner) if b is not None),
-                c.radius + c.partner_radius if c.partner is not None else 0.0)
-                for c in pl.contacts)
-            lines.append(f"RIGID_CONTACTS = {rules!r}   # e, mu, bodies, radii of a pair")
+                c.radius + c.partner_radius if c.partner is not None else 0.0,
+                c.static_friction) for c in pl.contacts)
+            lines.append(f"RIGID_CONTACTS = {rules!r}   # e, mu (kinetic), bodies, radii of "
+                         "a pair, mu_s (static)")
     if pl.spherical:          # speeds that are not rates: x = [q, u], dq = W(q) u
         lines.append(f"SPEEDS = {tuple(pl.speeds)!r}")
         lines.append(f"QUATERNIONS = {quaternions(pl)!r}")

@@ -128,8 +128,8 @@ def check(model: NumericModel, rtol: float | None = None,
     sample_t, decay, growth, speed, classic = eigen_samples(model, grid, x, samples)
     timings["eigenvalues"] = time.perf_counter() - start
     start = time.perf_counter()
-    probe = explicit_probe(model.problem(open_contacts=rigid), x0, grid[0], grid[-1],
-                           probe_calls)
+    probe = explicit_probe(model.problem(open_contacts=True) if rigid else model.problem(),
+                           x0, grid[0], grid[-1], probe_calls)
     timings["probe"] = time.perf_counter() - start
     start = time.perf_counter()
     cond_t, raw, scaled = mass_conditions(model, grid, x)

@@ -164,7 +164,7 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
                      slides_hint(model, speed_map, B, free))
     start = time.perf_counter()
     with np.errstate(all="ignore"):
-        tau, wrench = dynamics.split(demand, B)
+        tau, wrench = dynamics.apportion(demand, B)
     timings["efforts"] = elapsed + time.perf_counter() - start
     finite(info, t, np.concatenate([tau, wrench], -1), "the efforts")
     if model.quaternions:

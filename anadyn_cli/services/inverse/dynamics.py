@@ -52,14 +52,14 @@ class InverseDynamics:
     def efforts(self, t):
         """(q, dq, ddq, tau) over the time array ``t``; tau has shape t.shape + (m,)."""
         q, dq, ddq = self.motion(t)
-        return q, dq, ddq, self.split(*self.demand(t, q, dq, ddq))[0]
+        return q, dq, ddq, self.apportion(*self.demand(t, q, dq, ddq))[0]
 
     def forces(self, t):
         """(tau, wrench) over the time array ``t``: shapes t.shape + (m,), + (free,)."""
         q, dq, ddq = self.motion(t)
-        return self.split(*self.demand(t, q, dq, ddq))
+        return self.apportion(*self.demand(t, q, dq, ddq))
 
-    def split(self, demand, B):
+    def apportion(self, demand, B):
         """(tau, wrench): tau solving B tau = demand (= M ddq - F) on the actuated rows
         (square there; one LU when B is constant), and demand - B tau on the free rows."""
         if not self.free:                 # every row actuated: B square (and B as given)
@@ -78,7 +78,7 @@ class InverseDynamics:
         exact forcing)."""
         t = np.array(t, dtype=float)
         demand, B, contact = self.shared(t, *self.motion(t))
-        return (*self.split(demand, B), contact)
+        return (*self.apportion(demand, B), contact)
 
     def state_rate(self, t: float, x: np.ndarray, tau, wrench, contact=None) -> np.ndarray:
         """x' = [W(q) u, du] at one state x = [q, u], du solving M du = F + B tau + the
