@@ -216,8 +216,18 @@ def anadyn_runs(command: list[str], cache: Path, installed: Path, env: dict,
     return row
 
 
-def difference(anadyn_csv: Path, pin_csv: Path) -> float:
-    """Largest difference of the efforts over the largest effort."""
+def difference(anadyn_csv: Path, pin_csv: Path, urdf: Path) -> float:
+    """Largest difference of the joint efforts over the largest one: anadyn's efforts
+    are its actuators' (a URDF ``<transmission>`` makes a drive whose effort acts
+    through its gear N: the joint's is N times it), Pinocchio's the joints'."""
+    from anadyn_cli.model import load_robot
+    from anadyn_cli.model.urdf.options import ReadingOptions, reading
+
+    with reading(ReadingOptions(fix_base=True)):
+        robot = load_robot(urdf)
+    values = robot.parameter_substitution()
+    gear = {a.name[4:]: float(a.scale.xreplace(values)) for a in robot.actuators}
+
     def efforts(path):
         with open(path) as handle:
             header = handle.readline().strip().split(",")
@@ -225,7 +235,7 @@ def difference(anadyn_csv: Path, pin_csv: Path) -> float:
         return {h[4:]: table[:, i] for i, h in enumerate(header) if h.startswith("tau_")}
     a, p = efforts(anadyn_csv), efforts(pin_csv)
     scale = max(np.abs(v).max() for v in p.values())
-    return max(float(np.abs(a[j] - p[j]).max()) for j in a) / scale
+    return max(float(np.abs(gear.get(j, 1.0) * a[j] - p[j]).max()) for j in a) / scale
 
 
 def main() -> None:
@@ -264,7 +274,8 @@ def main() -> None:
                    **anadyn_runs([sys.executable, "-m", "anadyn_cli", *anadyn_args], cache,
                                  installed, base, args.repeat)}
             row["difference"] = (None if label == "simulate" or spec["coupled"]
-                                 else difference(cache / "out/inverse.csv", work / "pin.csv"))
+                                 else difference(cache / "out/inverse.csv", work / "pin.csv",
+                                                 urdf))
             rows.append(row)
             pw, pc = pin
             cells = [f"{row[k][0] / pw:.2f}x, {row[k][1] / pc:.2f}x"

@@ -167,8 +167,10 @@ def test_kernel_matches_pinocchio(name, kernel):
 
 @pytest.mark.parametrize("path, mode", [("robots/rr.yaml", "INVERTIBLE"), ("robots/rrt.yaml", "IDENTITY"),
                                         ("configs/chain6.yaml", "IDENTITY"),
-                                        ("robots/panda.urdf", "GENERAL")])
+                                        ("robots/panda.urdf", "GENERAL"),
+                                        ("robots/drives/rr_drives.yaml", "GENERAL")])
 def test_kernel_matches_generated_code(path, mode, kernel):
+    """(rr_drives: gears of 2 and 10 and rotors, so B holds each drive's N k_t.)"""
     robot = load_robot(ROOT / path)
     pl, tables, model, reference = generic_model(robot, kernel)
     assert tables.mode == getattr(generic.tables, mode)      # each way to the accelerations

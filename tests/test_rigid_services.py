@@ -23,6 +23,7 @@ from anadyn_cli.services import accuracy
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_contact import G, _drop as compliant_drop  # noqa: E402
+from test_rigid_contact import _block as rigid_block  # noqa: E402
 
 M, R, H0 = 1.0, 0.1, 1.0          # test_contact's ball, dropped from 1 m
 
@@ -107,29 +108,12 @@ def test_accuracy_scores_the_located_events_against_the_reference():
 
 # -- static and kinetic friction (the rigid model's static_friction) -------------------
 def block(load: str, static: float, kinetic: float) -> str:
-    """A 1 kg block resting on the floor (slides x and z), pushed along x by ``load``."""
-    return f"""
-name: block
-parameters: {{m: 1.0}}
-gravity: [0, 0, -{G}]
-coordinates: {{x: {{}}, z: {{}}}}
-bodies:
-  - {{name: slide_x, joint: {{type: prismatic, axis: [1, 0, 0], displacement: x}}, mass: 0}}
-  - name: block
-    parent: slide_x
-    joint: {{type: prismatic, axis: [0, 0, 1], displacement: z}}
-    mass: m
-    inertia: {{ixx: 0.01, iyy: 0.01, izz: 0.01}}
-loads:
-  - {{body: block, force: {load}}}
-contacts:
-  model: rigid
-  friction: {kinetic}
-  static_friction: {static}
-  geometry:
-    - {{name: sole, body: block}}
-simulation: {{t_end: 6, output_step: 0.01}}
-"""
+    """test_rigid_contact's 1 kg block (slides x and z) at rest on the floor, pushed
+    along x by ``load``, with friction ``kinetic`` and ``static``."""
+    return rigid_block(v0=0.0, mu=kinetic).replace(
+        "  friction: mu\n", f"  friction: mu\n  static_friction: {static}\n") + (
+        f"loads:\n  - {{body: block, force: {load}}}\n"
+        "simulation: {t_end: 6, output_step: 0.01}\n")
 
 
 def test_a_growing_push_breaks_static_friction_then_slides_against_kinetic():

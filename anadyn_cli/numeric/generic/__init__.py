@@ -99,8 +99,8 @@ class GenericModel(NumericModel):
         self._jacobian = self.jacobian
         nm = tables.A.shape[0]
         self._select = np.zeros((nm, len(self.effort_names)))     # efforts -> joint forces
-        for k, j in enumerate(tables.actuator_joint):
-            self._select[j, k] = 1.0
+        for k, (j, scale) in enumerate(zip(tables.actuator_joint, tables.actuator_scale)):
+            self._select[j, k] = scale                            # a drive's N k_t, else 1
         self._B = tables.A.T @ self._select                       # constant: theta affine
         self._B.setflags(write=False)
         self._zero = np.zeros(nm)

@@ -27,6 +27,7 @@ class Tables:
     A: np.ndarray                 # d(theta)/dq, (moving joints, n)
     actuator_joint: tuple[int, ...]
     mode: int
+    actuator_scale: tuple[float, ...] = ()   # generalized force per unit effort (a drive's N k_t)
 
 
 def affine_map(pl) -> tuple[np.ndarray, np.ndarray] | None:
@@ -95,4 +96,5 @@ def pack(pl) -> tuple[Tables | None, str]:
     doubles += [A.ravel(), c, *extra]
     return Tables(np.array(ints, dtype=np.int32),
                   np.concatenate([np.asarray(d, dtype=float).ravel() for d in doubles]),
-                  A, tuple(pl.actuator_joint), mode), ""
+                  A, tuple(pl.actuator_joint), mode,
+                  tuple(pl.actuator_scale) or (1.0,) * len(pl.actuator_joint)), ""
