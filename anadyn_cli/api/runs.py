@@ -78,7 +78,6 @@ def inverse(robot, formulation: str | None = None, evaluator: str | None = None,
                segment=roundtrip_segment, measured=samples,
                contact_gap=(contact_inverse.DEFAULT_GAP if contact_gap is None
                             else contact_gap),
-               friction=contact_inverse.friction_coefficients(model, robot),
                contact_resolution=contact_resolution)
 
 

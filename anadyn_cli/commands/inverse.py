@@ -83,13 +83,11 @@ def inverse(
                          f"{', '.join(model.coordinates[:3])}{', ...' * (model.n > 3)}) or "
                          "write a robot file with 'anadyn import' and add a trajectory: "
                          "section", source=str(robot))
-    from ..numeric.contact_inverse import friction_coefficients
-    friction = friction_coefficients(model, robot)        # a compliant law's mu
     with progress.task(f"efforts of {model.name}"
                        + (" and the round trip" if roundtrip else "")):
         result = service.inverse(model, step=dt, roundtrip=roundtrip, tolerance=roundtrip_tol,
                                  segment=roundtrip_segment, timings=timings, measured=samples,
-                                 contact_gap=contact_gap, friction=friction,
+                                 contact_gap=contact_gap,
                                  contact_resolution=contact_resolution)
     with progress.task("writing the results"), styled(figure_style(size, title, font_size)):
         written = service.write(result, out_dir(out, model.name), plot=plot,

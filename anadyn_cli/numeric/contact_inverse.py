@@ -60,24 +60,6 @@ RCOND = 1e-10               # pinv's cut of small singular values (relative)
 SUPPORT_TOLERANCE = 1e-9    # relative to the motion's (or the sample's) largest force
 
 
-def friction_coefficients(model, robot) -> tuple[float, ...] | None:
-    """mu per contact (file order) of a compliant ``model``'s robot (``robot``: its path
-    or the validated ``Robot``), its parameters folded (``numeric.contact.contact_plans``);
-    None without contacts or for the rigid model (``ContactSupport`` takes the model's)."""
-    if not model.contact_names or model.rigid_contacts is not None:
-        return None
-    from pathlib import Path
-
-    from .contact import contact_plans            # (SymPy: only for a robot with contacts)
-    if isinstance(robot, (str, Path)):
-        from ..model import load_robot
-        robot = load_robot(robot)
-    values = robot.parameter_substitution()
-    index = {b.name: i for i, b in enumerate(robot.bodies)}
-    return tuple(plan.friction for plan in contact_plans(
-        robot, lambda e: float(e.xreplace(values) if hasattr(e, "xreplace") else e), index))
-
-
 @dataclass
 class Distribution:
     """The contacts' share at the samples (leading shape ...): ``forces`` (..., c, 3) f_n,
@@ -91,16 +73,15 @@ class Distribution:
 class ContactSupport:
     """The contacts of ``model`` supporting the ``rows`` no actuator reaches (module
     docstring).  ``gap``: the largest gap of an active contact, m; ``friction``: mu per
-    contact (None: the friction cone is not checked; the rigid model's are the model's)."""
+    contact (None: the model's, ``CONTACT_FRICTION``)."""
 
     def __init__(self, model, rows, gap: float = DEFAULT_GAP, friction=None,
                  resolution: str = "least-norm"):
         self.model, self.rows, self.gap = model, list(rows), float(gap)
         self.resolution = resolution
         self.names = model.contact_names
-        if model.rigid_contacts is not None:
-            friction = [rule[1] for rule in model.rigid_contacts]
-        self.friction = None if friction is None else np.asarray(friction, dtype=float)
+        self.friction = np.asarray(model.contact_friction if friction is None else friction,
+                                   dtype=float)
 
     def kinematics(self, t, q, u):
         """(depth (N, c), J (N, c, 3, n), the law's generalized force J^T f_law (N, n)) at
@@ -147,12 +128,10 @@ class ContactSupport:
 
     def excess(self, forces: np.ndarray, active: np.ndarray) -> dict:
         """Per reason, (..., c): by how much each active contact's force pulls (-f_n) or
-        leaves its friction cone (|f_t| - mu f_n; only with the friction known)."""
+        leaves its friction cone (|f_t| - mu f_n)."""
         fn, ft = forces[..., 0], np.hypot(forces[..., 1], forces[..., 2])
-        out = {"pulling": np.where(active, -fn, 0.0)}
-        if self.friction is not None:
-            out["outside_cone"] = np.where(active, ft - self.friction * fn, 0.0)
-        return out
+        return {"pulling": np.where(active, -fn, 0.0),
+                "outside_cone": np.where(active, ft - self.friction * fn, 0.0)}
 
     def outside(self, forces: np.ndarray, active: np.ndarray) -> np.ndarray:
         """(..., c): the active contacts whose forces pull or leave their friction cone
@@ -211,8 +190,7 @@ class ContactSupport:
                     reasons[reason]["contact"] = self.names[c]
             flagged |= bad
         return {"samples": int(flagged.sum()), "tolerance": tol, "reasons": reasons,
-                "friction_cone": "checked" if self.friction is not None else
-                "not checked (friction coefficients not given)"}
+                "friction_cone": "checked"}
 
 
 def _faces(mu: np.ndarray) -> np.ndarray:

@@ -94,6 +94,7 @@ class NumericModel:
         self._contacts = namespace.get("contacts")
         #: per contact: stiffness k, exponent p and its body's mass (check's time constant)
         self.contact_laws: tuple = namespace.get("CONTACT_LAWS", ())
+        self.contact_friction: tuple = namespace.get("CONTACT_FRICTION", ())   # mu per contact
         #: the rigid contact model's (restitution, friction, bodies) per contact; None: the
         #: robot has none, or compliant ones (``numeric.impacts`` runs the rigid model)
         self.rigid_contacts: tuple | None = namespace.get("RIGID_CONTACTS")

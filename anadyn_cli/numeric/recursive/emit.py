@@ -124,6 +124,8 @@ def module_source(gen: Generated, header: str = "") -> str:
         lines.append(f"CONTACTS = {tuple(c.name for c in pl.contacts)!r}")
         laws = tuple((c.stiffness, c.exponent, pl.bodies[c.body].mass) for c in pl.contacts)
         lines.append(f"CONTACT_LAWS = {laws!r}   # stiffness, exponent, the body's mass")
+        friction = tuple(c.friction for c in pl.contacts)
+        lines.append(f"CONTACT_FRICTION = {friction!r}   # mu (the rigid model's kinetic one)")
         if pl.contacts[0].rigid:       # numeric.impacts: e, mu, the bodies, a pair's size
             rules = tuple((c.restitution, c.friction, tuple(
                 pl.bodies[b].name for b in (c.body, c.partner) if b is not None),

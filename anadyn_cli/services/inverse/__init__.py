@@ -91,8 +91,7 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
     within ``contact_gap`` (m) of its ground is active, and the rows no actuator reaches
     are given by the contacts' minimum-norm forces (``contact_resolution`` "least-norm"),
     or the least-norm ones inside the friction cones where those leave them ("cone");
-    ``friction``: mu per contact (the rigid model's are the model's; None for a compliant
-    one: the cone is not checked, nor resolved).
+    ``friction``: mu per contact (None: the model's, the robot file's ``friction``).
     """
     timings = {} if timings is None else timings
     info = model.info
@@ -102,10 +101,6 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
             raise SettingError("contact_resolution", "is one of "
                                + ", ".join(contact_inverse.RESOLUTIONS)
                                + f", got {contact_resolution!r}")
-        if (contact_resolution == "cone" and friction is None
-                and model.rigid_contacts is None):
-            raise SettingError("contact_resolution", "cone needs the contacts' friction "
-                                                     "coefficients (friction=...)")
     if measured is not None and step is not None:
         raise SettingError("output_step", "does not apply to a measured motion: its efforts "
                                           "are computed at its samples")
