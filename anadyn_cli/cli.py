@@ -16,12 +16,15 @@ import sys
 import typer
 
 from .errors import AnadynError, SettingError
+from .plain_options import plain_coercion
 
-app = typer.Typer(add_completion=True, no_args_is_help=True,
-                  context_settings={"help_option_names": ["-h", "--help"]},
-                  pretty_exceptions_enable=False, rich_markup_mode=None,
-                  help="Analytical dynamics of robot arms: Kane's method and Lagrange's "
-                       "equations from a YAML robot description.")
+#: the typer settings of ``app`` and of the one-command apps of ``_app_for``
+_SETTINGS = dict(add_completion=True, no_args_is_help=True,
+                 context_settings={"help_option_names": ["-h", "--help"]},
+                 pretty_exceptions_enable=False, rich_markup_mode=None,
+                 help="Analytical dynamics of robot arms: Kane's method and Lagrange's "
+                      "equations from a YAML robot description.")
+app = typer.Typer(**_SETTINGS)
 
 
 def _show_version(value: bool) -> None:
@@ -31,11 +34,13 @@ def _show_version(value: bool) -> None:
         raise typer.Exit()
 
 
-@app.callback()
 def _group(version: bool = typer.Option(False, "--version", "-V", callback=_show_version,
                                         is_eager=True, help="Print anadyn's version and exit."),
            ) -> None:
     """Analytical dynamics of robot arms (every command takes -h / --help)."""
+
+
+app.callback()(_group)
 
 
 def _interruptible(command):
@@ -53,16 +58,41 @@ def _interruptible(command):
     return run
 
 
-def _register_commands() -> None:
-    """Add every command of ``commands`` to ``app`` (once)."""
-    if app.registered_commands:
+def _register_commands(target: typer.Typer = app, commands=None) -> None:
+    """Add ``commands`` (default: every command of ``commands.COMMANDS``) to ``target`` (once)."""
+    if target.registered_commands:
         return
     from .commands import COMMANDS
     from .commands.common import check_options
 
-    for command in COMMANDS:
-        app.command(name=getattr(command, "cli_name", None))(
+    for command in COMMANDS if commands is None else commands:
+        target.command(name=getattr(command, "cli_name", None))(
             _interruptible(check_options(command)))
+
+
+_ONE_COMMAND: dict[str, typer.Typer] = {}
+
+
+def _app_for(argv: list[str] | None) -> typer.Typer:
+    """The app that runs the command line ``argv``: when its first word names a
+    command, an app like ``app`` with that command alone (the same usage lines,
+    help and messages; typer builds the parameters of every registered command on
+    each run), else ``app`` with every command."""
+    from .commands import COMMANDS
+
+    words = sys.argv[1:] if argv is None else argv
+    chosen = [c for c in COMMANDS if words and words[0] == (
+        getattr(c, "cli_name", None) or c.__name__.lower().replace("_", "-"))]
+    if len(chosen) != 1:
+        _register_commands()
+        return app
+    name = words[0]
+    if name not in _ONE_COMMAND:
+        one = typer.Typer(**_SETTINGS)
+        one.callback()(_group)
+        _register_commands(one, chosen)
+        _ONE_COMMAND[name] = one
+    return _ONE_COMMAND[name]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -86,10 +116,11 @@ def _main(argv: list[str] | None) -> int:
     from . import progress
 
     try:
-        _register_commands()
+        command = typer.main.get_command(_app_for(argv))
+        plain_coercion(command)           # no Pydantic for plain values (plain_options)
         with progress.session():          # what long commands are doing, on stderr
             try:
-                app(args=argv, prog_name="anadyn")
+                command(args=argv, prog_name="anadyn")
             finally:
                 progress.raise_lost()
     except SystemExit as done:
@@ -114,13 +145,28 @@ def _main(argv: list[str] | None) -> int:
     return 0
 
 
+#: the variables by which a user chooses OpenBLAS's threads (NumPy's and SciPy's BLAS)
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def _one_blas_thread() -> None:
+    """OPENBLAS_NUM_THREADS=1 unless one of BLAS_THREADS is set, before NumPy loads
+    OpenBLAS (a command imports it later): anadyn's matrices are small (a robot's
+    n <= ~100), on which OpenBLAS's other threads only wait, spinning, and that CPU
+    time was up to half a warm run's (TIAGo: simulate 0.46 -> 0.25 s, inverse
+    0.37 -> 0.27 s); the results are the same bytes."""
+    if not any(os.environ.get(name) for name in BLAS_THREADS):
+        os.environ["OPENBLAS_NUM_THREADS"] = "1"
+
+
 def run() -> None:
     """The ``anadyn`` console script.
 
     Ends the process with ``os._exit`` once stdout and stderr are flushed:
     every result file is complete on disk by then (``output`` writes a
     temporary file and renames it), and tearing SymPy, SciPy and Matplotlib
-    down module by module would add 0.3-0.5 s to every command.
+    down module by module would add 0.3-0.5 s to every command.  OpenBLAS runs
+    on one thread unless the user chose (``_one_blas_thread``).
 
     The cyclic garbage collector runs rarely (as mypy sets it): deriving and
     tracing allocate millions of small acyclic objects, and the default
@@ -129,6 +175,7 @@ def run() -> None:
     """
     gc.freeze()                                 # what the imports made: never scanned
     gc.set_threshold(200_000, 30, 30)
+    _one_blas_thread()
     code = main()
     for signum in (signal.SIGINT, signal.SIGTERM):     # done: a late signal changes nothing
         signal.signal(signum, signal.SIG_IGN)

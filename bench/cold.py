@@ -1,8 +1,9 @@
-"""Cold, second and warm runs of ``anadyn simulate`` and ``anadyn inverse``
-against a Pinocchio script doing the same job, in one run, on every robot of
-issue 25's table.
+"""Cold, second and warm runs of ``anadyn simulate``, ``inverse``, ``check`` and
+``linearize`` against a Pinocchio script doing the same job, in one run, on
+every robot of issue 25's table.
 
-    python bench/cold.py [--repeat K] [--only NAME ...] [--markdown FILE]
+    python bench/cold.py [--repeat K] [--only NAME ...] [--jobs JOB ...] [--timeout S]
+                         [--markdown FILE]
 
 Robots: example-robot-data's UR5, Panda, Solo12, Baxter, G1 (29 DOF), Talos
 (reduced), iCub and TIAGo (from the installed package), root welded
@@ -20,14 +21,26 @@ as in anadyn).  Jobs:
   and accelerations (nothing to differentiate); Pinocchio
   (``pinocchio_job.py --inverse``): read the CSV, RNEA at every sample plus the
   joint damping and friction, write the CSV.  The two efforts are compared
-  (largest difference over the largest effort).
+  (largest difference over the largest effort);
+- check: ``anadyn check URDF --fix-base --t-end 1`` (exit 0 or 1: a check may
+  fail); Pinocchio (``--check``): the simulation with the dissipated energy as
+  a state, the mass matrix's conditioning at every row, the energy balance,
+  the Jacobian's eigenvalues at 200 rows, RK45 at two tolerances;
+- linearize: ``anadyn linearize URDF --fix-base`` (the initial state, holding
+  efforts); Pinocchio (``--linearize``): A and B from the ABA derivatives, the
+  eigenvalues of A, the controllability rank.
 
 anadyn runs in a new process each time: *first*, with a new cache folder in
-which what an installation does once is done (``install``: the generic kernel
-built and SciPy's odeint self-check recorded beforehand, copied in); *second*, straight after the first (the robot's
-own code may still be building in the background); *warm*, after that build
-has ended (best of K).  Pinocchio: best of K.  Wall time and CPU time (user +
-system of the process and the children it waits for); the detached
+which what an installation does once is done (``install``: anadyn's modules
+compiled to bytecode, as pip does, the generic kernel built and SciPy's odeint
+self-check recorded beforehand, copied in); *second*, straight after the first
+(the robot's own code may still be building in the background); *warm*, after
+that build has ended (best of K).  Pinocchio: best of K.  A run that fails is
+shown as ``exit N`` (its error on stderr), one stopped after --timeout seconds
+as ``> S s``.  Both sides run OpenBLAS on one thread (anadyn sets it for
+itself, ``cli.BLAS_THREADS``; the script is given OPENBLAS_NUM_THREADS=1), so
+that no CPU time is that of threads spinning idle.  Wall time and CPU time
+(user + system of the process and the children it waits for); the detached
 background build is not among them: its own CPU and wall time, reported by
 the next run (``background_build_cpu``, ``background_build_wall`` in its
 JSON), are columns of their own.  Ratios are anadyn / Pinocchio.  DOF is
@@ -55,6 +68,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
+from anadyn_cli.cli import BLAS_THREADS  # noqa: E402
 
 
 def example_robot(path: str) -> Path | None:
@@ -71,6 +85,10 @@ ROBOTS = {"UR5": "ur_description/urdf/ur5_robot.urdf",
           "Talos": "talos_data/robots/talos_reduced.urdf",
           "iCub": "icub_description/robots/icub.urdf",
           "TIAGo": "tiago_description/robots/tiago.urdf"}
+
+
+#: the jobs, and the exit codes a run of each may end with (check: 1, a check failed)
+JOBS = {"simulate": (0,), "inverse": (0,), "check": (0, 1), "linearize": (0,)}
 
 
 def robots(work: Path) -> dict[str, Path]:
@@ -107,15 +125,27 @@ def for_pinocchio(urdf: Path, work: Path) -> Path:
     return path
 
 
-def timed(command: list[str], env: dict) -> tuple[float, float]:
-    """(wall, CPU) seconds of ``command``."""
+class Failed(Exception):
+    """A run that did not end as expected: ``str`` is the table's cell."""
+
+
+def timed(command: list[str], env: dict, codes=(0,),
+          timeout: float | None = None) -> tuple[float, float]:
+    """(wall, CPU) seconds of ``command``, which must end with one of ``codes`` within
+    ``timeout`` seconds (else Failed, its error line printed)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    done = subprocess.run(command, env=env, capture_output=True, text=True)
+    try:
+        done = subprocess.run(command, env=env, capture_output=True, text=True,
+                              timeout=timeout)
+    except subprocess.TimeoutExpired:
+        raise Failed(f"> {timeout:.0f} s") from None
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if done.returncode != 0:
-        raise RuntimeError(f"{' '.join(command)} failed:\n{done.stderr[-2000:]}")
+    if done.returncode not in codes:
+        print(f"{' '.join(command)[:200]} failed: {done.stderr.strip()[-300:]}",
+              file=sys.stderr)
+        raise Failed(f"exit {done.returncode}")
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
@@ -173,6 +203,10 @@ def install(work: Path) -> Path:
     installed = work / "installed"
     os.environ["ANADYN_CACHE_DIR"] = str(installed)
     os.environ.pop("ANADYN_NATIVE", None)
+    import compileall
+
+    import anadyn_cli
+    compileall.compile_dir(Path(anadyn_cli.__file__).parent, quiet=1)
     from anadyn_cli.numeric import generic, odepack
     if generic.kernel() is None:
         sys.exit("no generic kernel: no C compiler or Python headers")
@@ -192,8 +226,9 @@ def building(folder: Path) -> bool:
 
 
 def anadyn_runs(command: list[str], cache: Path, installed: Path, env: dict,
-                repeat: int) -> dict:
-    """first, second, warm (wall, CPU) and the background build's (CPU, wall)."""
+                repeat: int, codes=(0,), timeout: float | None = None) -> dict:
+    """first, second, warm (wall, CPU; or why not, a str: ``Failed``) and the
+    background build's (CPU, wall)."""
     shutil.copytree(f"{installed}-native", f"{cache}-native")
     env = {**env, "ANADYN_CACHE_DIR": str(cache)}
     out = cache / "out"
@@ -206,8 +241,12 @@ def anadyn_runs(command: list[str], cache: Path, installed: Path, env: dict,
                 time.sleep(0.2)
         best = None
         for _ in range(count):
-            result = timed([*command, "--out", str(out)], env)
-            best = result if best is None or result[0] < best[0] else best
+            try:
+                result = timed([*command, "--out", str(out)], env, codes, timeout)
+            except Failed as why:
+                best = best or str(why)
+                continue
+            best = result if not isinstance(best, tuple) or result[0] < best[0] else best
             timings = json.loads(next(out.glob("*.json")).read_text()).get("timings", {})
             if background is None and "background_build_cpu" in timings:
                 background = (timings["background_build_cpu"], timings["background_build_wall"])
@@ -242,10 +281,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--only", nargs="*", default=None)
+    parser.add_argument("--jobs", nargs="*", default=list(JOBS), choices=list(JOBS))
+    parser.add_argument("--timeout", type=float, default=300.0,
+                        help="Seconds after which an anadyn run is stopped (shown as '>').")
     parser.add_argument("--markdown", type=Path, default=None)
     args = parser.parse_args()
     work = Path(tempfile.mkdtemp(prefix="anadyn-cold-"))
     base = {k: v for k, v in os.environ.items() if k not in ("ANADYN_NATIVE", "ANADYN_GENERIC")}
+    if not any(base.get(name) for name in BLAS_THREADS):   # as anadyn sets it for itself
+        base["OPENBLAS_NUM_THREADS"] = "1"
     installed = install(work)
     lines = ["| robot | DOF | job | Pinocchio wall / CPU s | first: wall, CPU | "
              "second: wall, CPU | warm: wall, CPU | background build CPU / wall s | "
@@ -266,19 +310,28 @@ def main() -> None:
                 "inverse": ([*pin_script, "--inverse", str(pin_urdf), str(spec_path),
                              str(motion_path), str(work / "pin.csv")],
                             ["inverse", str(urdf), "--fix-base", "--motion", str(motion_path),
-                             "--no-roundtrip", "--no-plot"])}
-        for label, (pin_command, anadyn_args) in jobs.items():
+                             "--no-roundtrip", "--no-plot"]),
+                "check": ([*pin_script, "--check", str(pin_urdf), str(spec_path),
+                           str(work / "pin.csv")],
+                          ["check", str(urdf), "--fix-base", "--t-end", "1"]),
+                "linearize": ([*pin_script, "--linearize", str(pin_urdf), str(spec_path),
+                               str(work / "pin.csv")],
+                              ["linearize", str(urdf), "--fix-base"])}
+        for label in args.jobs:
+            pin_command, anadyn_args = jobs[label]
             pin = min((timed(pin_command, base) for _ in range(args.repeat)), key=lambda r: r[0])
             cache = work / f"{name}-{label}"
             row = {"robot": name, "dof": len(spec["joints"]), "job": label, "pinocchio": pin,
                    **anadyn_runs([sys.executable, "-m", "anadyn_cli", *anadyn_args], cache,
-                                 installed, base, args.repeat)}
-            row["difference"] = (None if label == "simulate" or spec["coupled"]
+                                 installed, base, args.repeat, JOBS[label], args.timeout)}
+            row["difference"] = (None if label != "inverse" or spec["coupled"]
+                                 or not isinstance(row["warm"], tuple)
                                  else difference(cache / "out/inverse.csv", work / "pin.csv",
                                                  urdf))
             rows.append(row)
             pw, pc = pin
-            cells = [f"{row[k][0] / pw:.2f}x, {row[k][1] / pc:.2f}x"
+            cells = [row[k] if isinstance(row[k], str)
+                     else f"{row[k][0] / pw:.2f}x, {row[k][1] / pc:.2f}x"
                      for k in ("first", "second", "warm")]
             bg, diff = row["background"], row["difference"]
             line = (f"| {name}{'*' if spec['coupled'] else ''} | {row['dof']} | {label} | "

@@ -19,7 +19,9 @@ the thread's CPU time, the best burst of each (the machine is shared and noisy).
 Batched, N states (default 10,000): ``forward_dynamics`` and ``forward_derivatives``
 in one call against a Python loop of Pinocchio's ``aba`` / ``computeABADerivatives``
 and against a Python loop of anadyn's single-state call (timed on N/10 states and
-scaled).  Prints times (microseconds per call, seconds per N states) and ratios.
+scaled).  Prints times (microseconds per call, seconds per N states) and ratios,
+and the multiplications and additions of the generated K and M by each algorithm
+(forward mode over the traced RNEA, the analytic RNEA derivatives; the cheaper runs).
 """
 from __future__ import annotations
 
@@ -38,6 +40,7 @@ sys.path.insert(0, str(ROOT))
 import anadyn  # noqa: E402
 from anadyn_cli import robot_from_text  # noqa: E402
 from anadyn_cli.model.urdf import import_file  # noqa: E402
+from anadyn_cli.numeric.recursive import derivatives as traced, plan  # noqa: E402
 from test_generic_kernel import URDFS, erd  # noqa: E402
 
 
@@ -104,7 +107,7 @@ def main(argv=None) -> int:
     print(f"{'robot':8} {'n':>3} {'function':8} {'anadyn us':>10} {'C entry us':>11} "
           f"{'kernel us':>10} {'pinocchio us':>13} {'ratio':>6} {'kernel ratio':>13} "
           f"{'central diff us':>16} {'ratio':>6} {'python us':>10}")
-    batched = []
+    batched, operations = [], []
     for name in args.robots.split(","):
         found = pair(name)
         if found is None:
@@ -116,6 +119,10 @@ def main(argv=None) -> int:
             print(f"{name}: no C ({d.note}): the generated Python runs")
             continue
         python = anadyn.derivatives(robot, native=False)
+        pl = plan(robot)
+        operations.append((name, d.n, *(None if tr is None else tr.counts.mul + tr.counts.add
+                                        for tr in (traced.trace_forward_mode_jacobian(pl),
+                                                   traced.trace_analytic_jacobian(pl)))))
         n, m = d.n, d.m
         assert model.nv == n, (model.nv, n)
         q, dq, tau, ddq = (rng.uniform(-1, 1, k) for k in (n, n, m, n))
@@ -178,6 +185,11 @@ def main(argv=None) -> int:
     for name, n, what, one_call, pin_loop, loop in batched:
         print(f"{name:8} {n:3d} {what:20} {one_call:9.3f} {pin_loop:15.3f} "
               f"{one_call / pin_loop:6.2f} {loop:12.3f} {one_call / loop:6.3f}")
+    print("\nmultiplications and additions of K and M (the cheaper is generated)")
+    print(f"{'robot':8} {'n':>3} {'forward mode':>13} {'analytic':>9}")
+    for name, n, forward, analytic in operations:
+        print(f"{name:8} {n:3d} {forward:13,d} "
+              f"{'-' if analytic is None else format(analytic, ',d'):>9}")
     return 0
 
 

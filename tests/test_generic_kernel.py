@@ -61,8 +61,8 @@ def generic_model(robot, module):
     code = recursive.module_source(recursive.generate(robot))
     info = RobotInfo.from_robot(robot)
     reference = native.RecursiveModel(info, code)
-    model = generic.GenericModel(info, pl, tables, module, generic.small_source(pl, robot),
-                                 lambda: reference)
+    model = generic.GenericModel(info, generic.Layout.of(pl), tables, module,
+                                 generic.small_source(pl, robot), lambda: reference)
     return pl, tables, model, reference
 
 
@@ -297,8 +297,8 @@ def test_kernel_matches_pinocchios_free_flyer_on_solo12(kernel):
 
     def full():
         raise AssertionError("the generated code is not needed here")
-    model = generic.GenericModel(RobotInfo.from_robot(robot), pl, tables, kernel,
-                                 generic.small_source(pl, robot), full)
+    model = generic.GenericModel(RobotInfo.from_robot(robot), generic.Layout.of(pl), tables,
+                                 kernel, generic.small_source(pl, robot), full)
     nq, n = pl.nq, pl.n
     namespace = {"mfb": lambda t, *s: model.mfb(t, s[:nq], s[nq:]),
                  "inverse_dynamics": lambda t, *s: model.demand(t, s[:nq], s[nq:nq + n],
@@ -358,8 +358,8 @@ def test_a_run_on_the_kernel_needs_none_of_the_generated_code(path, kernel):
 
     def full():
         raise AssertionError("a cold run built the robot's generated code")
-    model = generic.GenericModel(RobotInfo.from_robot(robot), pl, tables, kernel,
-                                 generic.small_source(pl, robot), full)
+    model = generic.GenericModel(RobotInfo.from_robot(robot), generic.Layout.of(pl), tables,
+                                 kernel, generic.small_source(pl, robot), full)
     result = simulate(model, t_end=0.2)
     assert result.solution.success and len(result.t) == 21
     if pl.spherical:

@@ -169,7 +169,8 @@ def accuracy(robot, methods: Iterable[str] | None = None,
 
 
 def linearize(robot, at: str | None = None, equilibrium: bool = False,
-              symbolic: bool = False, efforts: str = "auto", formulation: str = "kane"):
+              symbolic: bool = False, efforts: str = "auto", formulation: str | None = None,
+              evaluator: str | None = None):
     """State-space matrices, modes and controllability at an operating point
     (``anadyn linearize``).
 
@@ -180,7 +181,10 @@ def linearize(robot, at: str | None = None, equilibrium: bool = False,
     :param equilibrium: first find the static equilibrium nearest the given state.
     :param symbolic: also give the matrices with the parameters as symbols.
     :param efforts: "auto", "controller", "holding" or "zero" (unless ``at`` gives them).
-    :param formulation: "kane" or "lagrange".
+    :param formulation: "kane" or "lagrange": the closed forms of these equations.
+    :param evaluator: "recursive" (the generated derivatives of the recursive
+        Newton-Euler algorithm) or "closed-form" [recursive unless a formulation is
+        given or the robot has a spherical joint].
     :returns: a ``Linearization`` (``A``, ``B``, ``A_closed_loop`` as numpy arrays,
         ``eigenvalues``, ``controllability_rank``).
     """
@@ -188,4 +192,5 @@ def linearize(robot, at: str | None = None, equilibrium: bool = False,
 
     model = load(robot)
     service.check_efforts(model, efforts, service.parse_at(at, model))
-    return service.linearize(model, formulation, at, equilibrium, symbolic, efforts=efforts)
+    return service.linearize(model, formulation, at, equilibrium, symbolic, efforts=efforts,
+                             evaluator=evaluator)

@@ -65,7 +65,6 @@ def inverse(
     from .. import progress
     from ..errors import ModelError
     from ..numeric import measured
-    from ..numeric.build import describe
     from ..output.plots import styled
     from ..services import inverse as service
 
@@ -75,14 +74,7 @@ def inverse(
         raise ModelError("--smoothing-window and --smoothing-order apply to --motion data")
     how = measured.Differentiator.given(smoothing_window, smoothing_order)
     model = prepared_model(robot, formulation, evaluator, cache, timings)
-    samples = None if motion is None else measured.read_motion(
-        motion, model.coordinates, how, speeds=model.speeds, quaternions=model.quaternions)
-    if samples is None and robot.suffix.lower() == ".urdf":
-        raise ModelError("a URDF has no trajectory: give the motion as measured data "
-                         "(--motion data.csv with columns t, "
-                         f"{', '.join(model.coordinates[:3])}{', ...' * (model.n > 3)}) or "
-                         "write a robot file with 'anadyn import' and add a trajectory: "
-                         "section", source=str(robot))
+    samples = _samples(robot, model, motion, how)
     with progress.task(f"efforts of {model.name}"
                        + (" and the round trip" if roundtrip else "")):
         result = service.inverse(model, step=dt, roundtrip=roundtrip, tolerance=roundtrip_tol,
@@ -92,9 +84,39 @@ def inverse(
     with progress.task("writing the results"), styled(figure_style(size, title, font_size)):
         written = service.write(result, out_dir(out, model.name), plot=plot,
                                 plot_format=plot_format.value, rates=rates)
+    _report(result, model, samples, contact_resolution)
+    typer.echo(time_line(result.timings, start))
+    typer.echo("wrote " + ", ".join(str(p) for p in written))
+    echo_limits(result.limits, "inverse.json")
+    service.raise_if_failed(result)
+
+
+def _samples(robot: Path, model, motion: Path | None, how):
+    """The measured motion of ``--motion`` (None without it); a URDF without one has no
+    motion to follow (ModelError)."""
+    from ..errors import ModelError
+    from ..numeric import measured
+
+    samples = None if motion is None else measured.read_motion(
+        motion, model.coordinates, how, speeds=model.speeds, quaternions=model.quaternions)
+    if samples is None and robot.suffix.lower() == ".urdf":
+        raise ModelError("a URDF has no trajectory: give the motion as measured data "
+                         "(--motion data.csv with columns t, "
+                         f"{', '.join(model.coordinates[:3])}{', ...' * (model.n > 3)}) or "
+                         "write a robot file with 'anadyn import' and add a trajectory: "
+                         "section", source=str(robot))
+    return samples
+
+
+def _report(result, model, samples, contact_resolution: str) -> None:
+    """The terminal's summary: what ran, the measured motion, the tables, the round trip,
+    the constraint and contact forces."""
+    from ..numeric.build import describe
+    from ..services import inverse as service
+
     typer.echo(f"{result.robot.name}: {result.kind} motion over {result.duration:g} s "
                f"({describe(result.formulation, result.evaluator)}); efforts at "
-               f"{len(result.t)} points in {timings['efforts'] * 1e3:.2f} ms")
+               f"{len(result.t)} points in {result.timings['efforts'] * 1e3:.2f} ms")
     if samples is not None:
         typer.echo(f"measured motion: {samples.source}, {len(samples.t)} samples; "
                    f"{samples.describe()}")
@@ -110,7 +132,3 @@ def inverse(
         typer.echo(f"contact forces ({contact_resolution}): " + ", ".join(
             f"{name}_fn up to {result.contact.forces[:, c, 0].max():.4g} N"
             for c, name in enumerate(model.contact_names)))
-    typer.echo(time_line(result.timings, start))
-    typer.echo("wrote " + ", ".join(str(p) for p in written))
-    echo_limits(result.limits, "inverse.json")
-    service.raise_if_failed(result)

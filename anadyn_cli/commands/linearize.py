@@ -7,7 +7,8 @@ import typer
 
 from enum import Enum
 
-from .common import Formulation, OutOpt, RobotArg, echo_table, out_dir, time_line
+from .common import (Evaluator, EvaluatorOpt, Formulation, FormulationOpt, OutOpt, RobotArg,
+                     echo_table, out_dir, time_line)
 
 
 class Efforts(str, Enum):
@@ -35,8 +36,8 @@ def linearize(
                                      "(the controller's, else static holding efforts), "
                                      "controller, holding (e.g. about a set point, for a "
                                      "controller design), zero."),
-    formulation: Formulation = typer.Option(Formulation.kane, "--formulation",
-                                            help="Formulation the equations come from."),
+    formulation: Formulation = FormulationOpt,
+    evaluator: Evaluator = EvaluatorOpt,
     out: Path = OutOpt,
 ) -> None:
     """A = d(dx/dt)/dx and B = d(dx/dt)/d(tau) about an operating point, the closed-loop A
@@ -52,8 +53,9 @@ def linearize(
     model = load_robot(robot)
     timings["load"] = time.perf_counter() - start
     service.check_efforts(model, efforts.value, service.parse_at(at, model))   # before any work
-    result = service.linearize(model, formulation.value, at, equilibrium, symbolic, timings,
-                               efforts=efforts.value)
+    result = service.linearize(model, None if formulation is None else formulation.value, at,
+                               equilibrium, symbolic, timings, efforts=efforts.value,
+                               evaluator=None if evaluator is None else evaluator.value)
     written = service.write(result, out_dir(out, model.name))
     echo_table(service.report(result), "linearize_*.csv")
     typer.echo(time_line(timings, start))

@@ -70,14 +70,23 @@ def sweep(
     for two, histograms for Monte-Carlo).  Failed samples are rows, not
     errors: the exit code is 0 once the sweep has run.
     """
-    import contextlib
     import time
 
-    from .. import progress
-    from ..studies import executors
-    from ..studies import sweep as service
-
     start = time.perf_counter()
+    address = _address(scheduler, jobs)
+    settings = dict(samples=samples, seed=seed, metrics=metrics, maxima=maxima, minima=minima,
+                    settle_band=settle_band, use_cache=cache, method=method, rtol=rtol,
+                    atol=atol, t_end=t_end, output_step=dt, roundtrip=roundtrip,
+                    roundtrip_tolerance=roundtrip_tol, roundtrip_segment=roundtrip_segment,
+                    energy_tol=energy_tol, max_condition=max_condition)
+    plan, result = _run(robot, vary, command, formulation, settings, address, jobs)
+    _report(plan, result, out, plot, figure_style(size, title, font_size), start)
+
+
+def _address(scheduler: str | None, jobs: int | None) -> str | None:
+    """The Dask scheduler's address (None: local workers, ``jobs`` of them, checked)."""
+    from ..studies import executors
+
     address = executors.scheduler_address(scheduler)
     if address is None:
         executors.check_jobs(jobs)
@@ -85,7 +94,21 @@ def sweep(
         from ..errors import ModelError
         raise ModelError("--jobs is for local runs; a Dask cluster has its own workers "
                          "(drop --jobs or --scheduler)")
-    service.design([service.parse_vary(v) for v in vary], samples, seed)   # fail fast
+    return address
+
+
+def _run(robot: Path, vary: List[str], command: str, formulation: Formulation, settings: dict,
+         address: str | None, jobs: int | None):
+    """(plan, result): the design checked first, the robot derived with the varied names
+    free, the samples run locally or on the Dask cluster at ``address``."""
+    import contextlib
+
+    from .. import progress
+    from ..studies import executors
+    from ..studies import sweep as service
+
+    service.design([service.parse_vary(v) for v in vary], settings["samples"],
+                   settings["seed"])   # fail fast
     with contextlib.ExitStack() as stack:
         client = None
         if address is not None:
@@ -95,13 +118,7 @@ def sweep(
         with progress.task(f"deriving {robot.name} with "
                            f"{', '.join(v.partition('=')[0] for v in vary)} free"):
             plan = service.plan(robot, vary, command.strip().lower(), formulation.value,
-                                samples=samples, seed=seed, metrics=metrics, maxima=maxima,
-                                minima=minima, settle_band=settle_band, use_cache=cache,
-                                method=method, rtol=rtol, atol=atol, t_end=t_end,
-                                output_step=dt, roundtrip=roundtrip,
-                                roundtrip_tolerance=roundtrip_tol,
-                                roundtrip_segment=roundtrip_segment, energy_tol=energy_tol,
-                                max_condition=max_condition)
+                                **settings)
         typer.echo(f"{plan.robot.name}: {plan.payload.command} for {plan.design.count} "
                    f"samples ({plan.design.kind}) of {plan.folding.describe()}")
         where = f" on Dask at {address}" if address else ""
@@ -111,9 +128,16 @@ def sweep(
                 step.advance(done - step.completed, detail=f"{failed} not ok" if failed else "")
 
             result = service.run(plan, jobs=jobs, scheduler=client, on_progress=advance)
-    from ..output.plots import styled
+    return plan, result
 
-    with styled(figure_style(size, title, font_size)):
+
+def _report(plan, result, out: Path | None, plot: bool, style, start: float) -> None:
+    """Write the files (in the figure ``style``) and print the table, the summary, the
+    timings and what was written."""
+    from ..output.plots import styled
+    from ..studies import sweep as service
+
+    with styled(style):
         written = service.write(result, out_dir(out, plan.robot.name), plot=plot)
     echo_table(service.table(result), "sweep.csv")
     for line in service.lines(result):

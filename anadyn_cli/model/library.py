@@ -21,8 +21,6 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
 from .joints import JOINT_TYPES
 from .names import quaternion_names
 
@@ -73,6 +71,8 @@ def _data(path: Path):
         from .urdf import ReadingOptions
 
         return import_robot(path, ReadingOptions()).data
+    import yaml
+
     return yaml.safe_load(path.read_text(encoding="utf-8"))
 
 
@@ -196,6 +196,8 @@ def listing() -> list[Entry]:
 
 
 def describe(name: str, path: Path) -> Entry:
+    import yaml
+
     from ..errors import ModelError
 
     try:

@@ -2,8 +2,12 @@
 
 ``numeric_model`` is the one way in, from a path, a validated ``Robot``, or
 (internally) a cache entry.  Derivation and code generation need SymPy; they
-are imported only on a cache miss.  On a hit, a path is read and hashed, and
-the stored code and robot info are loaded: no YAML validation, no SymPy.
+are imported only on a cache miss.  On a hit, a path is read and hashed (a
+URDF that an earlier run imported is not imported again: ``_robot_text``), and
+the stored code and robot info are loaded: no YAML validation, no SymPy; the
+generated code's bytecode is kept in the cache too (``cache.compiled``).  Before
+the robot's own code is built, a later run is served as the first run was, by
+the generic kernel's model that run stored (``_recorded``).
 The cache is opt-in (``use_cache``): the command line turns it on, library
 calls leave it off unless asked.
 
@@ -95,7 +99,13 @@ def numeric_model(robot, formulation: str | None = None, use_cache: bool = False
     ``jacobian`` is off (then never cached: every cached model has it).
     SettingError for a wrong choice, or "recursive" on a closed chain."""
     use_cache = use_cache and jacobian
-    timings = {} if timings is None else timings
+    with cache.keeping_code(use_cache):             # generated code's bytecode kept too
+        return _numeric_model(robot, formulation, use_cache,
+                              {} if timings is None else timings, eom, jacobian, evaluator)
+
+
+def _numeric_model(robot, formulation: str | None, use_cache: bool, timings: dict, eom,
+                   jacobian: bool, evaluator: str | None) -> NumericModel:
     formulation, evaluator = ((eom.formulation, "closed-form") if eom is not None
                               else _request(formulation, evaluator))
     if isinstance(robot, (str, Path)):
@@ -201,22 +211,102 @@ def _generated_model(robot, pl, timings: dict, quick: bool, how: str | None, sto
     return model
 
 
-def _from_path(path: str | Path, formulation: str | None, evaluator: str | None,
-               use_cache: bool, timings: dict) -> NumericModel:
+#: what a URDF's import is filed under in the derivation cache (``_robot_text``)
+URDF_IMPORT = "urdf-import"
+
+
+def _robot_text(path: str | Path, use_cache: bool) -> tuple[str, str, tuple | None]:
+    """(text, display name, to file): ``yamlsource.read_text`` of ``path``.  Under
+    the cache, a URDF file that an earlier run imported with the same reading
+    options (--fix-base, --inertia, --lock), and ran, is not parsed again: its text
+    and import warnings (said again) are read from the cache entry filed under its
+    bytes, name and options (``URDF_IMPORT``); else it is imported from the bytes
+    that key names, and "to file" is (key, entry), which ``_from_path`` files once
+    the robot has run (None: nothing to file).  Only errors name places in the URDF
+    (``urdf.place``), and the text of a robot that ran raises none."""
+    from ..model import library
     from ..model.yamlsource import read_text
 
-    text, source = read_text(path)
+    resolved = library.resolve(path)
+    if not (use_cache and resolved.suffix.lower() == ".urdf" and resolved.is_file()):
+        return (*read_text(resolved), None)
+    from ..errors import ModelError, display_name
+    from ..model import urdf
+
+    options = urdf.READING.get()
+    try:
+        raw = urdf.read_urdf(resolved)
+    except ModelError:
+        raw = None
+    if raw is None or options.contacts:             # read_text says why
+        return (*read_text(resolved), None)
+    name = display_name(resolved)
+    key = hashlib.sha256(repr((name, options)).encode() + b"\0" + raw).hexdigest()
+    entry = cache.load(key, URDF_IMPORT)
+    filed = None
+    if not (isinstance(entry, dict) and isinstance(entry.get("code"), str)
+            and isinstance(entry.get("warnings"), list)):
+        imported = urdf.import_urdf(raw, name, options.fix_base, options.inertia,
+                                    options.lock, options.floating_base)
+        entry = {"code": imported.text, "warnings": [str(w) for w in imported.warnings]}
+        filed = (key, entry)
+    for warning in entry["warnings"]:
+        library.announce(f"warning: {warning}", warning=True)
+    return entry["code"], name, filed
+
+
+def _from_path(path: str | Path, formulation: str | None, evaluator: str | None,
+               use_cache: bool, timings: dict) -> NumericModel:
+    text, source, filed = _robot_text(path, use_cache)
+    model = _from_text(text, source, formulation, evaluator, use_cache, timings)
+    if filed is not None:                           # imported and ran: filed for next time
+        cache.store(filed[0], URDF_IMPORT, filed[1])
+    return model
+
+
+def _from_text(text: str, source: str, formulation: str | None, evaluator: str | None,
+               use_cache: bool, timings: dict) -> NumericModel:
     if use_cache:
         digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
         hit = _cached(digest, _cache_key(formulation), source, timings)
         if hit is not None:
             return _checked(hit, evaluator)
+        if formulation is None:                     # the robot's choice: maybe recursive
+            model = _recorded(text, source, digest, timings)
+            if model is not None:
+                return model
     from ..model import robot_from_text
 
     start = time.perf_counter()
     robot = robot_from_text(text, source)
     timings["load"] = time.perf_counter() - start
     return numeric_model(robot, formulation, use_cache, timings, evaluator=evaluator)
+
+
+def _recorded(text: str, source: str, digest: str, timings: dict) -> NumericModel | None:
+    """A run that comes before the robot's own code is built (no cache entry yet):
+    the generic kernel's model of the first run (``generic.recorded``), the robot
+    read and planned only where it is needed, in the background build or for what
+    the kernel does not compute; the build's cost and failure reported
+    (``background.report``).  None when no cold run left that model."""
+    from . import generic
+
+    def planned():
+        from ..model import robot_from_text
+        from . import recursive
+
+        robot = robot_from_text(text, source)
+        return robot, recursive.plan(robot)
+
+    entry = cache.key(digest, "recursive")
+    model = generic.recorded(
+        entry, source,
+        full=lambda: _generated_model(*planned(), {}, quick=False, how="off", store=False),
+        own_code=lambda: _own_code(*planned()))
+    if model is not None:
+        timings["cache"] = "miss"
+        background.report(entry, model.name, timings)
+    return model
 
 
 def _cached(digest: str, key: str, source: str, timings: dict) -> NumericModel | None:

@@ -25,7 +25,9 @@ What is stored there later runs as code, so (docs/explanation/security.md):
   or hostile file is a miss with a warning line, and the run rebuilds it.
 
 A cache folder that cannot be created or written is skipped silently (the
-cache only saves time).
+cache only saves time).  Besides the entries, the folder keeps the bytecode of
+generated code (``compiled``: marshalled code objects, sealed and checked as
+every file, so loaded only from the user's own files).
 """
 from __future__ import annotations
 
@@ -34,7 +36,10 @@ import hashlib
 import json
 import os
 import stat
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
+from types import CodeType
 
 from .. import __version__
 from ..errors import ModelError
@@ -302,10 +307,10 @@ def warn(line: str) -> None:
     announce(f"warning: {line}", warning=True)
 
 
-def read_record(folder: Path, name: str, what: str):
-    """The JSON value sealed in ``folder / name``; None if there is none.  A file
-    that is damaged, foreign or not JSON is None too, with a warning naming it as
-    ``what`` (it is rebuilt)."""
+def _read_sealed(folder: Path, name: str, what: str, decode, kind: str):
+    """``decode`` of the payload sealed in ``folder / name``; None if there is none.
+    A file that is damaged, foreign or not ``kind`` (``decode`` raises ValueError) is
+    None too, with a warning naming it as ``what`` (it is rebuilt)."""
     path = folder / name
     try:
         data = read_private(path)
@@ -318,11 +323,18 @@ def read_record(folder: Path, name: str, what: str):
     try:
         if payload is None:
             raise ValueError
-        return json.loads(payload)
-    except (ValueError, RecursionError, MemoryError):
+        return decode(payload)
+    except (ValueError, EOFError, TypeError, RecursionError, MemoryError):
         warn(f"{what} {path} is damaged (its content does not match its SHA-256 "
-             "or is not JSON); not used, rebuilt")
+             f"or is not {kind}); not used, rebuilt")
         return None
+
+
+def read_record(folder: Path, name: str, what: str):
+    """The JSON value sealed in ``folder / name``; None if there is none.  A file
+    that is damaged, foreign or not JSON is None too, with a warning naming it as
+    ``what`` (it is rebuilt)."""
+    return _read_sealed(folder, name, what, json.loads, "JSON")
 
 
 def write_record(folder: Path, name: str, value) -> None:
@@ -353,3 +365,49 @@ def store(robot_digest: str, formulation: str, entry: dict) -> None:
                      {**entry, "digest": robot_digest})
     except OSError:
         pass
+
+
+# ------------------------------------------------------------ code objects --
+
+#: whether generated code is compiled through the cache folder (``compiled``): only
+#: inside ``keeping_code``, which ``build.numeric_model`` enters when the run uses the
+#: derivation cache (library calls leave both off unless asked)
+_KEEP_CODE: ContextVar[bool] = ContextVar("anadyn_keep_code", default=False)
+#: the file name ending of a stored code object
+CODE = ".code"
+
+
+@contextmanager
+def keeping_code(on: bool = True):
+    """Inside the block, ``compiled`` keeps code objects in the cache folder (if ``on``)."""
+    token = _KEEP_CODE.set(on)
+    try:
+        yield
+    finally:
+        _KEEP_CODE.reset(token)
+
+
+def compiled(source: str, filename: str):
+    """The code object of anadyn's generated ``source`` (``model.run_generated``).
+    Inside ``keeping_code`` it is read from the cache folder, where an earlier run
+    that compiled the same source under this Python left it (sealed, as every
+    cache file: ``<SHA-256 of the bytecode magic and the source>.code``, its
+    marshalled bytes), else compiled and left there; otherwise compiled."""
+    if not _KEEP_CODE.get():
+        return compile(source, filename, "exec")
+    import marshal
+    from importlib.util import MAGIC_NUMBER
+
+    folder = trusted_folder(directory(), create=True)
+    name = hashlib.sha256(MAGIC_NUMBER + filename.encode() + b"\0"
+                          + source.encode("utf-8", "surrogatepass")).hexdigest() + CODE
+    code = None if folder is None else _read_sealed(folder, name, "compiled code",
+                                                    marshal.loads, "a code object")
+    if not isinstance(code, CodeType):
+        code = compile(source, filename, "exec")
+        if folder is not None:
+            try:
+                write_private(folder, name, seal(marshal.dumps(code)))
+            except OSError:
+                pass
+    return code

@@ -28,8 +28,10 @@ per row; t a number or shape (N,)) give arrays (N, n), (N, n, n), (N, n, m), C o
 one call runs the N states (the parameter derivatives: (N, n, k)).  Entry [i, j]
 is d(out_i)/d(in_j).
 
-d(ddq)/dx = M^-1 K with K = -dID/dx at fixed ddq (forward-mode differentiation
-of the traced recursive Newton-Euler algorithm), d(ddq)/dp = -M^-1 dID/dp.  Native:
+d(ddq)/dx = M^-1 K with K = -dID/dx at fixed ddq (the analytic derivatives of the
+recursive Newton-Euler algorithm, or forward-mode differentiation of the traced
+algorithm, whichever costs fewer operations: ``recursive.derivatives``),
+d(ddq)/dp = -M^-1 dID/dp.  Native:
 the C extension of ``recursive.derivatives.c_source`` (a Cholesky solve over M's
 structural nonzeros, a loop over the states in C), compiled on first use through
 ``native.build`` and cached like the dynamics' library; one state given as
@@ -181,11 +183,13 @@ class Derivatives:
 @dataclass
 class Generated:
     """The derivatives' code of one robot: the Python module, the parameter trace
-    (None without parameters) and the names; ``c()`` the C text."""
+    (None without parameters), the open-loop Jacobian's trace (which both texts
+    print) and the names; ``c()`` the C text."""
     python: str
     plan: object                       # recursive.Plan
     extra: object                      # recursive.Traced parameter Jacobian and law slopes
     parameters: tuple[str, ...]
+    jacobian: object                   # recursive.Traced: trace_open_loop_jacobian(plan)
 
     @property
     def coordinates(self) -> tuple[str, ...]:
@@ -200,7 +204,7 @@ class Generated:
         expression of the robot file has no C form."""
         from .recursive import derivatives as traced
 
-        return traced.c_source(self.plan, self.extra)
+        return traced.c_source(self.plan, self.extra, self.jacobian)
 
 
 def generate(robot, parameters=()) -> Generated:
@@ -219,7 +223,8 @@ def generate(robot, parameters=()) -> Generated:
     pl = plan(robot)
     extra = ((trace_parameter_jacobian(robot, pl, names), trace_law_slopes(robot, pl, names))
              if names else None)
-    return Generated(traced.module_source(pl, extra), pl, extra, names)
+    jacobian = traced.trace_open_loop_jacobian(pl)
+    return Generated(traced.module_source(pl, extra, jacobian), pl, extra, names, jacobian)
 
 
 def derivatives(robot, native: bool = True, parameters=()) -> Derivatives:

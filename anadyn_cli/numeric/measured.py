@@ -291,8 +291,31 @@ def read_table(path, required, optional=(), note: str = "") -> Table:
             raise ModelError(f"column {name} appears {header.count(name)} times; give it "
                              "once", source=source, line=line)
     index = [header.index(name) for name in wanted]
-    values = np.empty((len(rows) - 1, len(wanted)))
-    for k, (number, row) in enumerate(rows[1:]):
+    body = rows[1:]
+    try:                        # at once (NumPy reads each text as float() does) ...
+        if any(len(row) != len(header) for _, row in body):
+            raise ValueError
+        values = np.array([[row[c] for c in index] for _, row in body],
+                          dtype=float).reshape(len(body), len(index))
+        if not np.isfinite(values).all():
+            raise ValueError
+    except ValueError:          # ... else value by value, to say where and what
+        values = _values(body, header, index, source)
+    table = Table(source, dict(zip(wanted, values.T)))
+    t = table["t"]
+    back = np.flatnonzero(np.diff(t) <= 0)
+    if len(back):
+        k = int(back[0]) + 1
+        raise ModelError(f"times must increase, got {t[k]:g} after {t[k - 1]:g}",
+                         source=source, line=rows[k + 1][0], path="column t")
+    return table
+
+
+def _values(body, header, index, source: str) -> np.ndarray:
+    """The columns ``index`` of the numbered rows ``body``, each a finite number;
+    ModelError naming the first row or value that is not."""
+    values = np.empty((len(body), len(index)))
+    for k, (number, row) in enumerate(body):
         if len(row) != len(header):
             raise ModelError(f"{len(row)} values, the header has {len(header)} columns",
                              source=source, line=number)
@@ -306,14 +329,7 @@ def read_table(path, required, optional=(), note: str = "") -> Table:
                 raise ModelError(f"must be a finite number, got {text!r}", source=source,
                                  line=number, path=f"column {header[column]}")
             values[k, j] = value
-    table = Table(source, dict(zip(wanted, values.T)))
-    t = table["t"]
-    back = np.flatnonzero(np.diff(t) <= 0)
-    if len(back):
-        k = int(back[0]) + 1
-        raise ModelError(f"times must increase, got {t[k]:g} after {t[k - 1]:g}",
-                         source=source, line=rows[k + 1][0], path="column t")
-    return table
+    return values
 
 
 @dataclass(frozen=True, eq=False)

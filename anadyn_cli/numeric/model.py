@@ -46,9 +46,12 @@ def run_generated(source: str) -> dict:
     """The namespace of anadyn's own generated module ``source`` (never user text:
     expressions reach generated code only through the whitelist parser).  Source
     from the cache gets here only from files ``cache.read_record`` trusts: the
-    user's own, in folders no one else can write, matching their SHA-256."""
+    user's own, in folders no one else can write, matching their SHA-256; so does
+    a compiled code object kept there (``cache.compiled``)."""
+    from .cache import compiled
+
     namespace: dict[str, object] = {}
-    exec(compile(source, "<anadyn generated>", "exec"), namespace)   # noqa: S102
+    exec(compiled(source, "<anadyn generated>"), namespace)   # noqa: S102
     return namespace
 
 

@@ -166,29 +166,9 @@ def optimize(robot, goal: dict | None = None, start: dict | None = None,
     from ..output.export.traced import trace
 
     ca = export_casadi.require()
-    if objective not in OBJECTIVES:
-        raise SettingError("objective", f"must be one of {', '.join(OBJECTIVES)}, "
-                                        f"not {objective!r}")
-    if not 1 <= intervals <= MAX_INTERVALS:
-        raise SettingError("intervals", f"must be 1 to {MAX_INTERVALS}, got {intervals}")
-    if duration is None and robot.trajectory is not None:
-        duration = float(robot.trajectory.duration)
-    if duration is None and objective == "effort":
-        raise SettingError("duration", "is missing: minimizing effort needs the duration")
-    if duration is not None and not duration > 0:
-        raise SettingError("duration", f"must be positive, got {duration:g}")
-    q0, qf = endpoints(robot, goal, start)
-    info = RobotInfo.from_robot(robot)
-    if objective == "time" and any(a.effort_limit is None for a in info.actuators):
-        raise SettingError("objective", "time needs an effort limit on every actuator "
-                           "(joint limits: effort); without them the least time is zero")
+    duration, q0, qf, info = _problem(ca, robot, goal, start, duration, objective, intervals)
     n, m = len(q0), len(robot.actuators)
     zero = np.zeros(n)
-    for label, pose in (("start", q0), ("goal", qf)):
-        for name, quantity, theta, lower, upper in _bounded(ca, info, pose, zero, np.zeros(m)):
-            if quantity == "position" and not lower <= float(theta) <= upper:
-                raise ModelError(f"unreachable {label}: {name} = {float(theta):g} is outside "
-                                 f"its limits [{lower:g}, {upper:g}]", source=robot.source)
     export_casadi_functions = export_casadi.functions(trace(robot))
     fd = export_casadi_functions["forward_dynamics"]
     opti = ca.Opti()
@@ -248,6 +228,35 @@ def optimize(robot, goal: dict | None = None, start: dict | None = None,
         result.controller, result.no_controller = tracking(
             robot, result, *_inertia_and_hold(export_casadi_functions, q0, qf, m))
     return result
+
+
+def _problem(ca, robot, goal, start, duration, objective: str, intervals: int):
+    """(duration, q0, qf, info): the settings checked (SettingError), the duration the
+    file's trajectory's when not given, the start and goal poses (``endpoints``) inside
+    the position limits (ModelError)."""
+    if objective not in OBJECTIVES:
+        raise SettingError("objective", f"must be one of {', '.join(OBJECTIVES)}, "
+                                        f"not {objective!r}")
+    if not 1 <= intervals <= MAX_INTERVALS:
+        raise SettingError("intervals", f"must be 1 to {MAX_INTERVALS}, got {intervals}")
+    if duration is None and robot.trajectory is not None:
+        duration = float(robot.trajectory.duration)
+    if duration is None and objective == "effort":
+        raise SettingError("duration", "is missing: minimizing effort needs the duration")
+    if duration is not None and not duration > 0:
+        raise SettingError("duration", f"must be positive, got {duration:g}")
+    q0, qf = endpoints(robot, goal, start)
+    info = RobotInfo.from_robot(robot)
+    if objective == "time" and any(a.effort_limit is None for a in info.actuators):
+        raise SettingError("objective", "time needs an effort limit on every actuator "
+                           "(joint limits: effort); without them the least time is zero")
+    zero, efforts = np.zeros(len(q0)), np.zeros(len(robot.actuators))
+    for label, pose in (("start", q0), ("goal", qf)):
+        for name, quantity, theta, lower, upper in _bounded(ca, info, pose, zero, efforts):
+            if quantity == "position" and not lower <= float(theta) <= upper:
+                raise ModelError(f"unreachable {label}: {name} = {float(theta):g} is outside "
+                                 f"its limits [{lower:g}, {upper:g}]", source=robot.source)
+    return duration, q0, qf, info
 
 
 def _inertia_and_hold(functions: dict, q0: np.ndarray, qf: np.ndarray, m: int):

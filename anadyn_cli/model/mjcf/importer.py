@@ -1,50 +1,37 @@
 """The MJCF import: ``import_file`` reads the model (``source``), walks the body
-tree (``_Importer``: joints, mass properties, armature rotors, actuators) and
+tree (``_Importer``: joints (``joints.Joints``), mass properties (``masses.Masses``),
+armature rotors, actuators (``actuators.Actuators``)) and
 writes the robot as YAML text through the imports' safe writer
 (``robottext.render``)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ... import __version__
 from ...errors import ModelError, display_name
-from ..joints import Floating, Prismatic, Revolute, Spherical
-from ..names import ANGULAR, GROUND, QUATERNION
-from ..robottext import SMALLEST, Numbers, _angle, _format, _Names, render
-from ..urdf.frames import _snap, compose, matrix_rpy
+from ..joints import Revolute
+from ..names import GROUND
+from ..robottext import SMALLEST, Numbers, _format, _Names, render
+from ..urdf.frames import _snap, compose
 from ..urdf.importer import Imported
-from ..urdf.inertia import MassProperties, combine, inertia_problem
-from . import equality, frames, inertia, source
+from ..urdf.inertia import MassProperties, combine
+from . import equality, frames, source
 from .actuators import Actuators
-from .geoms import GEOM_TYPES, ContactGeoms
+from .geoms import ContactGeoms
+from .joints import Joints, _Body
 from .loops import Loops
+from .masses import Masses
 from .source import _Reader
 
-#: MJCF joint types anadyn represents -> its joint type word (``model.joints``)
-JOINTS = {"hinge": Revolute.word, "slide": Prismatic.word}
-#: the MJCF joints of several coordinates (``several_joint``)
-SEVERAL = ("ball", "free")
 #: elements inside a <body> that carry no dynamics here (drawn or sensed only)
 IGNORED_IN_BODY = ("site", "camera", "light")
 #: top-level elements that carry no rigid-body dynamics (<contact>'s pairs and excludes
 #: are not read: contact geoms are, with ``contacts``)
 IGNORED_TOP = ("compiler", "size", "visual", "statistic", "asset", "default", "sensor",
                "keyframe", "custom", "contact", "extension")
-
-
-@dataclass
-class _Body:
-    """One anadyn body: an MJCF joint, the MJCF bodies it carries (parts, in its axes)."""
-    name: str
-    parent: str
-    joint: dict
-    mjcf_joint: str
-    mjcf_body: str
-    parts: list = field(default_factory=list)
 
 
 def import_file(path: str | Path, fix_base: bool = False, inertia: str = "refuse",
@@ -66,7 +53,7 @@ def import_file(path: str | Path, fix_base: bool = False, inertia: str = "refuse
     return _Importer(shown, root, fix_base, contacts).run(root)
 
 
-class _Importer(Numbers, _Reader, ContactGeoms, Loops, Actuators):
+class _Importer(Numbers, _Reader, Joints, Masses, ContactGeoms, Loops, Actuators):
     """One import; ``bodies`` are anadyn's bodies in tree order."""
 
     def __init__(self, source_name: str, root, fix_base: bool, contacts: bool = False):
@@ -231,248 +218,6 @@ class _Importer(Numbers, _Reader, ContactGeoms, Loops, Actuators):
             else:
                 yield child, frame, cls
 
-    def joint(self, element, body: str, owner: str, pending, cls: str, last: bool, frame):
-        """The anadyn body of one MJCF joint (in the <frame> of pose ``frame`` when not
-        None); returns it as the new owner and the MJCF body's frame in its axes."""
-        count = sum(b.mjcf_body == body for b in self.bodies)
-        name = element.get("name") or f"{body}_joint{count + 1}"
-        where = f"joint {name!r}"
-        if name in self.coordinates:
-            raise self.error(where, "a second joint of this name (MuJoCo's names are unique)")
-        kind = "free" if element.tag == "freejoint" else self.word(
-            element, "type", ("free", "ball", "slide", "hinge"), where, "hinge", cls)
-        if kind == "free":
-            if self.fix_base and owner == GROUND:
-                self.warnings.append(f"{self.source}: {where}: free joint welded to the world "
-                                     "(--fix-base)")
-                return owner, pending
-            if owner != GROUND:
-                raise self.error(where, "a free joint on a body that is not on the world body "
-                                        "(MuJoCo allows it only there)")
-        if kind in SEVERAL:
-            return self.several_joint(element, kind, name, body, owner, pending, cls, last,
-                                      frame, where)
-        R, t = pending
-        p = self.numbers(element, "pos", 3, where, "0 0 0", cls)
-        axis = self.numbers(element, "axis", 3, where, "0 0 1", cls)
-        self.nonzero(axis, element, "axis", where)
-        if frame is not None:
-            p, axis = frame[1] + frame[0] @ p, _snap(frame[0] @ axis)
-        unit = axis / np.linalg.norm(axis)
-        angle = math.pi / 180 if kind == "hinge" and self.compiler.degrees else 1.0
-        ref = self.number(element, "ref", where, "0", cls) * angle
-        if kind == "hinge":
-            origin, C, after = t + R @ p, R @ frames.axis_angle(unit, -ref), -p
-        else:
-            origin, C, after = t - R @ unit * ref, R, np.zeros(3)
-        q = self.names.coordinate(name)
-        self.coordinates[name] = (q, ref)
-        self.kinds[name] = kind
-        spec = {"type": JOINTS[kind]}
-        origin = _snap(origin)
-        if origin.any():
-            spec["origin"] = self.vector(origin)
-        rpy = _snap(matrix_rpy(C), math.pi)
-        if rpy.any():
-            spec["rpy"] = [_angle(self.value(a)) for a in rpy]
-        spec["axis"] = self.vector(axis)
-        spec["displacement"] = q
-        if self.get(element, "springdamper", cls) is not None and self.numbers(
-                element, "springdamper", 2, where, cls=cls).any():
-            raise self.error(where, "springdamper: give stiffness and damping instead (anadyn "
-                                    "imports them as they are)")
-        spec.update(self.joint_forces(element, kind, angle, where, cls))
-        armature = self.nonnegative(element, "armature", where, cls)
-        if armature:
-            self.rotors.append({"coordinate": q, "joint": name, "armature": armature})
-        anadyn_name = self.names.body(body if last else f"{body}_{name}")
-        self.bodies.append(_Body(anadyn_name, owner, spec, name, body))
-        return anadyn_name, (np.eye(3), after)
-
-    def several_joint(self, element, kind: str, name: str, body: str, owner: str, pending,
-                      cls: str, last: bool, frame, where: str):
-        """A ball joint (anadyn's spherical: the quaternion and the angular velocity in
-        body axes, MuJoCo's qpos and qvel) turning about its ``pos`` in the body, or a
-        free joint (anadyn's floating: x, y, z and the quaternion, MuJoCo's qpos, the
-        body's placement at the start; speeds the origin's velocity in the world and
-        the angular velocity in body axes, MuJoCo's qvel).  Neither takes forces,
-        limits or actuators here."""
-        for key in ("damping", "stiffness", "frictionloss", "armature"):
-            if self.number(element, key, where, "0", cls):
-                raise self.error(where, f'{key}="{self.get(element, key, cls)}" on a {kind} '
-                                        "joint: not imported (anadyn's joint forces act along "
-                                        "one coordinate)")
-        R, t = pending
-        stem = self.names.coordinate(name)
-        if kind == "free":
-            spec = {"type": Floating.word}
-            initial = [*t, *frames.quaternion_of(R)]
-            parts, after = ("x", "y", "z", *QUATERNION), (np.eye(3), np.zeros(3))
-        else:
-            p = self.numbers(element, "pos", 3, where, "0 0 0", cls)
-            if frame is not None:
-                p = frame[1] + frame[0] @ p
-            spec, initial = {"type": Spherical.word}, [1, 0, 0, 0]
-            parts, after = QUATERNION, (np.eye(3), -p)
-            origin, rpy = _snap(t + R @ p), _snap(matrix_rpy(R), math.pi)
-            if origin.any():
-                spec["origin"] = self.vector(origin)
-            if rpy.any():
-                spec["rpy"] = [_angle(self.value(a)) for a in rpy]
-        names = [self.names.coordinate(f"{stem}_{part}") for part in parts]
-        speeds = [self.names.coordinate(f"{stem}_{part}") for part in ANGULAR]
-        spec.update(coordinates=names, speeds=speeds)
-        self.several[name] = (names, [self.value(v) for v in initial])
-        self.kinds[name] = kind
-        anadyn_name = self.names.body(body if last else f"{body}_{name}")
-        self.bodies.append(_Body(anadyn_name, owner, spec, name, body))
-        return anadyn_name, after
-
-    def joint_forces(self, element, kind: str, angle: float, where: str, cls: str) -> dict:
-        spec = {}
-        limited = self.word(element, "limited", ("true", "false", "auto"), where, "auto", cls)
-        has_range = self.get(element, "range", cls) is not None
-        if limited == "true" or (limited == "auto" and self.compiler.autolimits and has_range):
-            lower, upper = self.numbers(element, "range", 2, where, "0 0", cls) * angle
-            if lower > upper:
-                raise self.error(where, f'range="{self.get(element, "range", cls)}": the lower '
-                                        "end is above the upper one")
-            if lower < upper:
-                spec["limits"] = {"lower": self.value(lower), "upper": self.value(upper)}
-        damping = self.nonnegative(element, "damping", where, cls)
-        if damping and "damper" not in self.disabled:
-            spec["damping"] = self.value(damping)
-        friction = self.nonnegative(element, "frictionloss", where, cls)
-        if friction:
-            spec["friction"] = self.value(friction)
-            self.warnings.append(
-                f"{self.source}: {where}: frictionloss {_format(friction)} becomes anadyn's "
-                "smoothed Coulomb friction (friction * tanh(rate / 0.01)); MuJoCo's is a "
-                "constraint, so the motions differ near rest")
-        stiffness = self.nonnegative(element, "stiffness", where, cls)
-        if stiffness and "spring" not in self.disabled:
-            spec["stiffness"] = self.value(stiffness)
-            rest = self.number(element, "springref", where, "0", cls) * angle
-            if rest:
-                spec["rest"] = self.value(rest)
-        return spec
-
-    def nonnegative(self, element, key: str, where: str, cls: str) -> float:
-        value = self.number(element, key, where, "0", cls)
-        if value < 0:
-            raise self.error(where, f'{key}="{self.get(element, key, cls)}": cannot be negative')
-        return value
-
-    # -- mass properties ------------------------------------------------------------------
-    def mass(self, element, where: str, members) -> MassProperties:
-        """The body's mass properties in its MJCF frame: its <inertial>, or its geoms'
-        (``compiler.inertiafromgeom``), raised to <compiler boundmass> and each
-        principal moment to boundinertia, as MuJoCo's compiler raises them."""
-        inertial = element.find("inertial")
-        mode = self.compiler.inertiafromgeom
-        if inertial is not None and mode != "true":
-            found = self.inertial(inertial, where)
-        elif mode == "false":
-            found = MassProperties(0.0, np.zeros(3), np.zeros((3, 3)))
-        else:
-            geoms = [(child, frame, cls) for child, frame, cls in members if child.tag == "geom"]
-            parts = [(self.geom(g, k, where, cls), frame)
-                     for k, (g, frame, cls) in enumerate(geoms)]
-            found = combine([p.moved(frame) if frame else p for p, frame in parts if p is not None])
-        mass, floor = self.compiler.boundmass, self.compiler.boundinertia
-        if found.mass >= mass and not floor:
-            return found
-        moments, axes = np.linalg.eigh(found.inertia)
-        return MassProperties(max(found.mass, mass), found.com,
-                              axes @ np.diag(np.maximum(moments, floor)) @ axes.T)
-
-    def inertial(self, element, where: str) -> MassProperties:
-        where = f"{where}: <inertial>"
-        mass = self.number(element, "mass", where)
-        if mass < 0:
-            raise self.error(where, f'mass="{element.get("mass")}": cannot be negative')
-        com = self.numbers(element, "pos", 3, where, "0 0 0")
-        R = self.orientation(element, where, "main")
-        if element.get("fullinertia") is not None:
-            if element.get("diaginertia") is not None or R is not frames.IDENTITY:
-                raise self.error(where, "fullinertia (in the body's axes) goes without "
-                                        "diaginertia and without an orientation")
-            xx, yy, zz, xy, xz, yz = self.numbers(element, "fullinertia", 6, where)
-            tensor = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
-        else:
-            tensor = np.diag(self.numbers(element, "diaginertia", 3, where))
-        problem = inertia_problem(np.linalg.eigvalsh(tensor))
-        if problem:
-            raise self.error(where, f"the inertia {problem}; no rigid body has it")
-        return MassProperties(mass, com, R @ tensor @ R.T)
-
-    def geom(self, element, index: int, where: str, cls: str) -> MassProperties | None:
-        where = f"{where}: geom {element.get('name') or index + 1!r}"
-        kind = self.word(element, "type", GEOM_TYPES, where, "sphere", cls)
-        group = self.number(element, "group", where, "0", cls)
-        lowest, highest = self.compiler.inertiagroups
-        if not lowest <= group <= highest:
-            return None
-        if self.get(element, "shellinertia", cls) == "true":
-            raise self.error(where, 'shellinertia="true": anadyn computes solid geoms\' '
-                                    "inertias only; give the body an <inertial>")
-        if kind not in inertia.SIZES:
-            raise self.error(where, f"a {kind} geom: anadyn computes the inertia of sphere, "
-                                    "capsule, cylinder, box and ellipsoid geoms; give the body "
-                                    "an <inertial> (inertiafromgeom=\"auto\")")
-        size, R, centre = self.shape(element, kind, where, cls)
-        given = self.get(element, "mass", cls)
-        if given is not None:
-            mass = self.number(element, "mass", where, cls=cls)
-        else:
-            mass = self.number(element, "density", where, "1000", cls) * inertia.volume(kind, size)
-        if mass < 0:
-            raise self.error(where, "the mass cannot be negative")
-        moments = inertia.moments(kind, size, mass)
-        return MassProperties(mass, centre, R @ np.diag(moments) @ R.T)
-
-    def shape(self, element, kind: str, where: str, cls: str):
-        """(sizes, R, centre) of a sphere, capsule, cylinder, box or ellipsoid geom in its
-        body's (or frame's) axes, as MuJoCo's compiler reads them (fromto: the axis z
-        from one end to the other, the last size half its length)."""
-        fromto = self.get(element, "fromto", cls)
-        count = inertia.SIZES[kind]
-        size = self.numbers(element, "size", (1 if fromto and count > 1 else count, 3),
-                            where, None, cls)
-        if fromto is not None:
-            if kind == "sphere":
-                raise self.error(where, "fromto is for capsule, cylinder, box and ellipsoid geoms")
-            ends = self.numbers(element, "fromto", 6, where, cls=cls)
-            along = ends[3:] - ends[:3]
-            if not np.linalg.norm(along) > 1e-12:
-                raise self.error(where, f'fromto="{fromto}": the two ends coincide')
-            size = np.array(list(size[:count - 1]) + [0.0] * (count - 1 - len(size[:count - 1]))
-                            + [np.linalg.norm(along) / 2])
-            R, centre = frames.z_to(along), (ends[:3] + ends[3:]) / 2
-        else:
-            size = size[:count]
-            if len(size) < count:
-                raise self.error(where, f'size="{self.get(element, "size", cls)}": a {kind} '
-                                        f"needs {count} numbers")
-            R = self.orientation(element, where, cls)
-            centre = self.numbers(element, "pos", 3, where, "0 0 0", cls)
-        if any(s <= 0 for s in size):
-            raise self.error(where, f'size="{self.get(element, "size", cls)}": sizes must be '
-                                    "positive")
-        return size, R, centre
-
-    def total_mass_scale(self) -> float:
-        """MuJoCo's settotalmass: every body's mass and inertia scaled by this."""
-        wanted = self.compiler.settotalmass
-        if wanted <= 0:
-            return 1.0
-        total = sum(m.mass for b in self.bodies for _, m in b.parts) + sum(
-            m.mass for m in self.static_mass)
-        if total <= 0:
-            raise self.error("<compiler>", "settotalmass: the model has no mass to scale")
-        return wanted / total
-
-    # -- contacts ----------------------------------------------------------------------------
     # -- the YAML --------------------------------------------------------------------------------
     def emit(self, root, gravity, scale, actuators, laws, gains) -> Imported:
         bodies, comments = [], []

@@ -15,7 +15,9 @@ the robot.
 robot-specific code is generated, stored in the derivation cache and compiled
 in a forked process at the lowest priority, for the next run (one such build
 per robot at a time, its cost reported by the next run, a failure said once
-and not retried: ``background``).  Only when
+and not retried: ``background``).  It stores what the model is made of beside
+the cache entry (``RECORD``): ``recorded`` serves the runs that come before the
+build ends from it, without reading the robot again.  Only when
 native code is on in its default mode (``ANADYN_NATIVE`` unset), and
 ``ANADYN_GENERIC`` is not 0, on POSIX (fork), for robots the tables can hold.
 A ``GenericModel`` computes rhs, accelerations, driven accelerations, the
@@ -31,6 +33,7 @@ from __future__ import annotations
 import os
 import sys
 from importlib import resources
+from typing import NamedTuple
 
 import numpy as np
 
@@ -38,7 +41,8 @@ from .differences import central_differences
 from .tables import Tables, pack
 from ..model import NumericModel, PrescribedMotion, run_generated
 
-__all__ = ["GenericModel", "Tables", "enabled", "first_run", "kernel", "pack"]
+__all__ = ["GenericModel", "Layout", "RECORD", "Tables", "enabled", "first_run",
+           "kernel", "pack", "recorded"]
 
 
 def c_text() -> str:
@@ -69,6 +73,21 @@ def kernel(timings: dict | None = None):
     return _KERNEL[0]
 
 
+class Layout(NamedTuple):
+    """What a GenericModel reads of the plan: the names of the coordinates, speeds
+    and efforts, and the coordinate indices of each spherical joint's quaternion."""
+    coordinates: tuple[str, ...]
+    speeds: tuple[str, ...]
+    efforts: tuple[str, ...]
+    quaternions: tuple[tuple[int, ...], ...]
+
+    @classmethod
+    def of(cls, pl) -> "Layout":
+        from ..recursive.emit import quaternions
+
+        return cls(tuple(pl.coordinates), tuple(pl.speeds), tuple(pl.efforts), quaternions(pl))
+
+
 def _call(code: int) -> None:
     if code == 1:
         raise np.linalg.LinAlgError("mass matrix not positive definite")
@@ -78,15 +97,13 @@ class GenericModel(NumericModel):
     """A ``NumericModel`` computed by the generic kernel (module docstring);
     ``full()`` builds the generated Python for what the kernel does not do."""
 
-    def __init__(self, info, pl, tables: Tables, module, small_source: str, full):
-        from ..recursive.emit import quaternions
-
+    def __init__(self, info, layout: Layout, tables: Tables, module, small_source: str, full):
         namespace = run_generated(small_source)
         self.info, self.source = info, small_source
         self.evaluator, self.formulation = "recursive", None
-        self.coordinates, self.effort_names = tuple(pl.coordinates), tuple(pl.efforts)
-        self.speeds, self.quaternions = tuple(pl.speeds), quaternions(pl)
-        self.n, self.nq = pl.n, pl.nq                 # x = [q (nq), u (n)]
+        self.coordinates, self.effort_names = layout.coordinates, layout.efforts
+        self.speeds, self.quaternions = layout.speeds, layout.quaternions
+        self.n, self.nq = len(self.speeds), len(self.coordinates)   # x = [q (nq), u (n)]
         self._rates = namespace.get("rates")          # dq = W(q) u, with a spherical joint
         self.contact_names, self.rigid_contacts = (), None     # ``pack`` refuses contacts
         self._kernel, self._make_full, self._full = module, full, None
@@ -216,10 +233,10 @@ def first_run(robot, pl, info, full, own_code, entry: str,
     cache entry ``entry``) in a forked process unless it is being built or failed
     (``background.start``); None when the kernel cannot serve (``enabled``, no
     fork, no kernel, or tables that cannot hold the robot): the caller goes on as
-    before.  ``timings``: the kernel's compile, the first time ever."""
-    from .. import background
-
-    if not (enabled() and hasattr(os, "fork")):
+    before.  What the model is made of is stored beside the entry (``RECORD``), for
+    the runs that come before the robot's own code (``recorded``).  ``timings``:
+    the kernel's compile, the first time ever."""
+    if not _can_serve():
         return None
     tables, _ = pack(pl)
     if tables is None:
@@ -227,10 +244,79 @@ def first_run(robot, pl, info, full, own_code, entry: str,
     module = kernel(timings)
     if module is None:
         return None
-    model = GenericModel(info, pl, tables, module, small_source(pl, robot), full)
+    layout, small = Layout.of(pl), small_source(pl, robot)
+    _store(entry, {"robot": info.to_dict(), "layout": layout._asdict(), "small": small,
+                   "tables": {"ints": tables.ints.tolist(), "doubles": tables.doubles.tolist(),
+                              "A": tables.A.tolist(), "mode": tables.mode,
+                              "actuator_joint": list(tables.actuator_joint),
+                              "actuator_scale": [float(s) for s in tables.actuator_scale]}})
+    return _served(GenericModel(info, layout, tables, module, small, full), entry, own_code)
+
+
+#: beside the derivation cache entry KEY.json: KEY.kernel, sealed, what the first
+#: run's GenericModel is made of (its robot info, layout, tables and small source)
+RECORD = ".kernel"
+
+
+def _can_serve() -> bool:
+    return enabled() and hasattr(os, "fork")
+
+
+def _served(model: GenericModel, entry: str, own_code) -> GenericModel:
+    """``model``, the robot's own code started (``background.start``) and said in its note."""
+    from .. import background
+
     model.native_note = (f"generic kernel (the robot's own code "
                          f"{background.start(entry, own_code, _fork)})")
     return model
+
+
+def _store(entry: str, record: dict) -> None:
+    from .. import cache
+
+    folder = cache.trusted_folder(cache.directory(), create=True)
+    if folder is not None:
+        try:
+            cache.write_record(folder, entry + RECORD, record)
+        except OSError:
+            pass
+
+
+def recorded(entry: str, source: str, full, own_code) -> GenericModel | None:
+    """The GenericModel of an earlier cold run of the robot whose derivation cache
+    entry is ``entry`` (its RECORD; ``source``: the robot's display name), with no
+    robot read: a run that comes while the robot's own code is being built (or
+    after it failed) is served as the first was, from the same numbers.  As in
+    ``first_run``, ``own_code()`` is started unless it is being built or failed,
+    ``full()`` builds the generated Python for what the kernel does not do.  None
+    when there is no such record (or it is damaged, or the kernel cannot serve)."""
+    from .. import cache
+    from ...model.info import RobotInfo
+
+    if not _can_serve():
+        return None
+    folder = cache.trusted_folder(cache.directory(), create=False)
+    record = None if folder is None else cache.read_record(folder, entry + RECORD,
+                                                           "first-run record")
+    if not isinstance(record, dict):
+        return None
+    module = kernel()
+    if module is None:
+        return None
+    try:
+        t = record["tables"]
+        tables = Tables(np.array(t["ints"], dtype=np.int32), np.array(t["doubles"], dtype=float),
+                        np.array(t["A"], dtype=float),
+                        tuple(int(j) for j in t["actuator_joint"]), int(t["mode"]),
+                        tuple(float(s) for s in t["actuator_scale"]))
+        layout = record["layout"]
+        layout = Layout(*(tuple(layout[k]) for k in ("coordinates", "speeds", "efforts")),
+                        tuple(tuple(int(i) for i in q) for q in layout["quaternions"]))
+        model = GenericModel(RobotInfo.from_dict(record["robot"], source), layout, tables,
+                             module, record["small"], full)
+    except Exception:           # noqa: BLE001  anything wrong with a stored record is a miss
+        return None
+    return _served(model, entry, own_code)
 
 
 def _fork(work) -> None:

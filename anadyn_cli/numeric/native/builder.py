@@ -141,15 +141,16 @@ def folder() -> Path:
     return cache.native_directory()
 
 
-def library_path(c_text: str) -> Path | None:
-    """The cached library built from ``c_text``, its bytes checked against the
+def library_path(c_text: str, name: str | None = None) -> Path | None:
+    """The cached library built from ``c_text`` (its ``module_name``, when the caller
+    has it: a robot's C text is megabytes to hash), its bytes checked against the
     SHA-256 of its record; None when there is none, or (with a warning) when it
     is damaged, missing or not the user's: the caller rebuilds it.
     UntrustedCache when the folder is not the user's own."""
     place = cache.trusted_folder(folder(), create=False)
     if place is None:
         return None
-    name = module_name(c_text)
+    name = name or module_name(c_text)
     record = cache.read_record(place, f"{name}.lib", "native library record")
     if record is None:
         return None
@@ -406,7 +407,8 @@ def load(c_text: str, timings: dict | None = None, how: str | None = None):
     why = unavailable()
     if why:
         return None, why
-    name, path = module_name(c_text), library_path(c_text)
+    name = module_name(c_text)
+    path = library_path(c_text, name)
     if path is not None:
         module = _import(name, path)
         if module is not None:

@@ -11,7 +11,7 @@ one C file with
 
 wrapped as a CPython extension module (METH_FASTCALL, buffer protocol: no
 NumPy headers, ~0.2 us per call).  The robot's programs are printed here
-(``ir.c_lines``), cut into functions of CHUNK statements (gcc's register
+(``printers.c_lines``), cut into functions of CHUNK statements (gcc's register
 allocation is superlinear in a basic block's length); the fixed part (the
 drivers, the sparse triangular solves, the Python wrappers) is the template
 ``driver.c.in`` beside this file, whose lines ``JACOBIAN``, ``JAC_METHOD`` and
@@ -43,7 +43,7 @@ def _chunked(name: str, params: str, inputs: dict[str, str], statements,
     """``static int name(params)``: inputs (atom -> C expression), the statements
     in functions of at most CHUNK statements (declared with ``attributes``, a
     macro of the C text, before ``int``), then ``outputs`` (target, Ex)."""
-    from ..ir import c_expr, c_lines
+    from ..printers import c_expr, c_lines
 
     chunks = [statements[i:i + CHUNK] for i in range(0, len(statements), CHUNK)] or [[]]
     home = {a: -1 for a in inputs}

@@ -6,8 +6,11 @@ Two functions of (t, q, dq, ddq, e), with ID(t, q, dq, ddq, e) = M ddq - F - B e
 
     open_loop_residual   M and ID                       (the forward dynamics:
                                                          ddq = -M^-1 ID(ddq = 0))
-    open_loop_jacobian   M and K = -dID/d[q, dq, e] at fixed ddq (n x (2n + m)),
-                         forward mode over the traced RNEA (``Program.derivatives``)
+    open_loop_jacobian   M and K = -dID/d[q, dq, e] at fixed ddq (n x (2n + m)):
+                         the analytic RNEA derivatives (``rnea_derivatives``,
+                         Carpentier and Mansard 2018) or forward mode over the
+                         traced RNEA (``Program.derivatives``), whichever costs
+                         fewer operations (``ir.count``) where both apply
 
 so that d(ddq)/d[q, dq, e] = M^-1 K at ddq = M^-1 (F + B e), and at e = 0 the
 inverse dynamics' derivatives are dID/dq = -K[:, :n], dID/ddq = -K[:, n:2n],
@@ -19,6 +22,7 @@ from __future__ import annotations
 from importlib import resources
 
 from ..ir import ZERO, Ex, Program
+from . import rnea_derivatives
 from .crba import mass_matrix
 from .emit import PY_HEADER, VEC_HEADER, _python_function
 from .plan import Plan
@@ -49,9 +53,9 @@ def trace_residual(pl: Plan) -> Traced:
     return _finish("open_loop_residual", _args(pl), P, {"M": M, "ID": [P.emit(x) for x in ID]})
 
 
-def trace_open_loop_jacobian(pl: Plan, with_M: bool = True) -> Traced:
-    """M and K = -dID/d[q, dq, e] at fixed ddq (forward mode, seeds _q, _u, _e);
-    ``with_M`` False: K alone (the C takes M from the residual)."""
+def trace_forward_mode_jacobian(pl: Plan) -> Traced:
+    """M (CRBA) and K = -dID/d[q, dq, e] at fixed ddq, forward mode over the traced
+    RNEA (seeds _q, _u, _e)."""
     n, m = pl.n, len(pl.actuator_joint)
     P, M, ID = _residual(pl)
     with P:
@@ -63,7 +67,37 @@ def trace_open_loop_jacobian(pl: Plan, with_M: bool = True) -> Traced:
         for r in range(n):
             d = P.derivative_of(ID[r], D)
             K.append([P.emit(-d[k]) if k in d else ZERO for k in range(2 * n + m)])
-    return _finish("open_loop_jacobian", _args(pl), P, {"M": M, "K": K} if with_M else {"K": K})
+    return _finish("open_loop_jacobian", _args(pl), P, {"M": M, "K": K})
+
+
+def trace_analytic_jacobian(pl: Plan) -> Traced | None:
+    """The same by the analytic RNEA derivatives (``rnea_derivatives``), None where
+    they do not cover the robot: of the axes the passes may run in (each group's
+    first body or one or two joints below it, or the world's: ``reference_at``), the
+    one that costs fewer operations (``ir.count``)."""
+    if not rnea_derivatives.covered(pl):
+        return None
+    best = None
+    for depth in (0, 1, 2, None):
+        P = Program()
+        with P:
+            M, K = rnea_derivatives.jacobian(Tracer(pl, P), [Ex.atom(f"_w{k}")
+                                                             for k in range(pl.n)], depth)
+        traced = _finish("open_loop_jacobian", _args(pl), P, {"M": M, "K": K})
+        if best is None or traced.counts.total < best.counts.total:
+            best = traced
+    return best
+
+
+def trace_open_loop_jacobian(pl: Plan) -> Traced:
+    """M and K = -dID/d[q, dq, e] at fixed ddq: the analytic RNEA derivatives where
+    they cover the robot and cost fewer operations (``ir.count``), else forward
+    mode."""
+    forward = trace_forward_mode_jacobian(pl)
+    analytic = trace_analytic_jacobian(pl)
+    if analytic is None or analytic.counts.total >= forward.counts.total:
+        return forward
+    return analytic
 
 
 def _vectorized_lines(tr: Traced) -> list[str]:
@@ -75,14 +109,16 @@ def _vectorized_lines(tr: Traced) -> list[str]:
     return lines
 
 
-def module_source(pl: Plan, parameters: tuple[Traced, Traced] | None = None) -> str:
+def module_source(pl: Plan, parameters: tuple[Traced, Traced] | None = None,
+                  jacobian: Traced | None = None) -> str:
     """Python source of ``open_loop_residual`` and ``open_loop_jacobian``, each
     scalar and vectorized (``_v``), with N and M_EFFORTS; with ``parameters`` (the
     ``parameter_jacobian`` and ``law_slopes`` of ``recursive.parameters``) those too
-    and N_PARAMETERS."""
+    and N_PARAMETERS; ``jacobian``: ``trace_open_loop_jacobian(pl)`` when already
+    traced."""
     lines = [PY_HEADER, VEC_HEADER]
     functions = [(trace_residual(pl), "M and ID = M ddq - F - B e (scalar)."),
-                 (trace_open_loop_jacobian(pl),
+                 (jacobian or trace_open_loop_jacobian(pl),
                   "M and K = -dID/d[q, dq, e] at fixed ddq (scalar).")]
     if parameters is not None:
         functions += [(parameters[0], "P = dID/dp at fixed ddq (scalar)."),
@@ -135,7 +171,8 @@ def _factor_pattern(nonzero: list[list[bool]]) -> list[str]:
     return lines
 
 
-def c_source(pl: Plan, parameters: tuple[Traced, Traced] | None = None) -> str | None:
+def c_source(pl: Plan, parameters: tuple[Traced, Traced] | None = None,
+             jacobian: Traced | None = None) -> str | None:
     """The C extension of the derivatives (``C_DRIVER``; module name left as
     MODULE_NAME; the tables of M's factor's structural nonzeros, ``_factor_pattern``;
     with ``parameters`` (``module_source``), NPAR, ``pfill``: P = dID/dp and
@@ -151,16 +188,14 @@ def c_source(pl: Plan, parameters: tuple[Traced, Traced] | None = None) -> str |
         inputs["_e_unused"] = "(double)(e == 0)"
     state = {a: c for a, c in inputs.items() if a[:2] in ("_t", "_q", "_u")}
     params = "double _t, const double *x, const double *w, const double *e, double *M, double *out"
-    residual, jacobian = trace_residual(pl), trace_open_loop_jacobian(pl, with_M=False)
-    P, M, _ = _residual(pl)
-    mass = _finish("mass_matrix", _args(pl), P, {"M": M})
+    residual, jacobian = trace_residual(pl), jacobian or trace_open_loop_jacobian(pl)
 
     def chunk(name, params, inputs, statements, outputs):
         """``native.emit._chunked``; with no statements (the outputs constants) a plain
         function, every argument marked used (-Wextra)."""
         if statements:
             return _chunked(name, params, inputs, statements, outputs, "CLONED")
-        from ..ir import c_expr
+        from ..printers import c_expr
         used = [f"    (void){p.split('*')[-1].split()[-1]};" for p in params.split(",")]
         return ([f"static int {name}({params}) {{", *used]
                 + [f"    {target} = {c_expr(value)};" for target, value in outputs]
@@ -178,18 +213,15 @@ def c_source(pl: Plan, parameters: tuple[Traced, Traced] | None = None) -> str |
         if parameters is not None:
             k = len(parameters[0].outputs["P"][0])
             out.append(f"#define NPAR {k}")
-        out += _factor_pattern([[not v.is_zero() for v in row] for row in mass.outputs["M"]])
+        out += _factor_pattern([[not v.is_zero() for v in row] for row in residual.outputs["M"]])
         out.append("")
         out += _chunked("resid", params, inputs, residual.statements,
                         cells("M", residual.outputs["M"], n)
                         + [(f"out[{k}]", v) for k, v in enumerate(residual.outputs["ID"])],
                         "CLONED")
-        out += _chunked("mfill", "double _t, const double *x, const double *w, const double *e, "
-                        "double *M", inputs, mass.statements, cells("M", mass.outputs["M"], n),
-                        "CLONED")
-        out += _chunked("kfill", "double _t, const double *x, const double *w, const double *e, "
-                        "double *out", inputs, jacobian.statements,
-                        cells("out", jacobian.outputs["K"], 2 * n + m), "CLONED")
+        out += _chunked("kfill", params, inputs, jacobian.statements,
+                        cells("M", jacobian.outputs["M"], n)
+                        + cells("out", jacobian.outputs["K"], 2 * n + m), "CLONED")
         if parameters is not None:          # out and tau may be written nowhere: used
             jacobian, slopes = parameters
             out += chunk("pfill", "double _t, const double *x, const double *w, double *out",
@@ -216,7 +248,11 @@ CLONED = """#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) 
 #define CLONED
 #endif"""
 
-#: the fixed part of the C extension: Cholesky over M's structural nonzeros, the
-#: forward dynamics, the forward and inverse derivatives at ``count`` states (rows)
-#: per call, and at one state from NumPy vectors into new arrays (``one_*``)
-C_DRIVER = _template("derivatives_driver.c.in")
+#: Cholesky over M's structural nonzeros (``_factor_pattern``'s tables): ``cholesky``
+#: and ``chosolve``, the one text of the C export's too (``output.export.c``)
+CHOLESKY = _template("cholesky.c.in")
+
+#: the fixed part of the C extension: ``CHOLESKY``, the forward dynamics, the forward
+#: and inverse derivatives at ``count`` states (rows) per call, and at one state from
+#: NumPy vectors into new arrays (``one_*``)
+C_DRIVER = CHOLESKY + _template("derivatives_driver.c.in")

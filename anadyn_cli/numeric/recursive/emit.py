@@ -5,8 +5,8 @@ the Cholesky factor and the names of the coordinates and efforts.
 from __future__ import annotations
 
 from ...model.robot import Robot
-from ..ir import python_expr, python_lines
 from ..native import VECTOR_MARK
+from ..printers import python_expr, python_lines
 from .factor import factor_tables
 from .trace import Generated, Traced, generate
 

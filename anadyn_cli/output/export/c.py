@@ -4,15 +4,14 @@ Compiles cleanly with ``gcc -std=c99 -Wall -Wextra -Werror -pedantic``.
 Matrices are row-major arrays the caller provides; the equations' leaf
 functions (mass matrix, forcing, input matrix, control laws, partials) are
 generated with common subexpressions eliminated; the linear algebra (an
-in-place Cholesky factorization of M, and a Jacobi SVD for B's
-pseudo-inverse) is fixed-size loops over local arrays.  With a spherical joint
+in-place Cholesky factorization of M over its factor's structural nonzeros, the
+text of anadyn's derivatives, and a Jacobi SVD for B's pseudo-inverse) is
+fixed-size loops over local arrays.  With a spherical joint
 (x = [q, u], ``ExportModel``) the speeds' arguments are ``u`` and ``du``,
 ``NAME_N_SPEEDS`` sizes them, and ``NAME_rates`` (dq = W(q) u) is added.
 """
 from __future__ import annotations
 
-from importlib import resources
-from string import Template
 from typing import Callable
 
 import sympy as sp
@@ -20,6 +19,7 @@ from sympy.printing.c import C99CodePrinter
 
 from .model import (Block, ExportModel, Named, block, inputs_used, leaf_note, local_names, quiet,
                     row_major, temporary_prefix)
+from .templates import template
 
 C_KEYWORDS = {
     "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
@@ -221,68 +221,93 @@ def _leaf(model: ExportModel, names: dict, prefix: str, signature: str,
     return lines
 
 
-def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
-    N, P = model.name, _params(model)
-    Pa = _params(model, pointer=False)
-    n, m = model.n, model.m
-    up = N.upper()
+def _fields(model: ExportModel) -> dict:
+    """The names the source's parts share: N the robot's, P (Pa) the parameters'
+    argument in a signature (a call), dq and ddq the speeds' and accelerations' arrays,
+    NQ the speeds' count (M is NQ x NQ), NC the coordinates' (more than NQ with a
+    quaternion), NE the efforts'."""
+    up = model.name.upper()
     _, dq, ddq = model.arrays
-    spherical = model.kinematic is not None
-    # NQ sizes the speeds (M is NQ x NQ); NC the coordinates, more than NQ with a quaternion
-    NQ, NE = f"{up}_N_SPEEDS" if spherical else f"{up}_N_COORDINATES", f"{up}_N_EFFORTS"
-    NC = f"{up}_N_COORDINATES"
-    names = _names(model)
-    prefix = temporary_prefix(set(names.values()))
-    extra = ["p"] if model.symbolic else []
+    NQ = f"{up}_N_SPEEDS" if model.kinematic is not None else f"{up}_N_COORDINATES"
+    return {"N": model.name, "P": _params(model), "Pa": _params(model, pointer=False),
+            "dq": dq, "ddq": ddq, "NQ": NQ, "NC": f"{up}_N_COORDINATES",
+            "NE": f"{up}_N_EFFORTS"}
+
+
+def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
+    N = model.name
     lines = [_comment([f"{N}.c -- {model.title()}", "",
                        f"See {N}.h for the functions, their arguments and units."]),
              "#include <float.h>", "#include <math.h>", "", f'#include "{N}.h"', ""]
     if model.symbolic:
         values = ", ".join(repr(p.value) for p in model.parameters) or "0.0"
         lines += [f"const {N}_params {N}_default_params = {{{values}}};", ""]
-    # -- the equations -------------------------------------------------------
-    lower = sp.Matrix(model.n, model.n, lambda i, j: model.M[i, j] if j <= i else 0)
-    lines += _leaf(model, names, prefix, f"void {N}_mass_matrix(const double *q, double *M{P})",
-                   {"M": lower}, ["q", *extra], symmetric="M", note=note) + [""]
-    lines += _leaf(model, names, prefix,
-                   f"void {N}_forcing(double t, const double *q, const double *{dq}, "
-                   f"double *F{P})", {"F": model.F}, ["t", "q", dq, *extra], note=note) + [""]
-    if m:
-        lines += _leaf(model, names, prefix,
-                       f"void {N}_input_matrix(const double *q, double *B{P})",
-                       {"B": model.B}, ["q", *extra], note=note) + [""]
-        lines += _leaf(model, names, prefix,
-                       f"void {N}_efforts(double t, const double *q, const double *{dq}, "
-                       f"double *tau{P})", {"tau": model.laws}, ["t", "q", dq, *extra],
-                       note=note) + [""]
+    f = _fields(model)
+    lines += _equations(model, f, note)
+    lines += _linear_algebra(model, f)
+    lines += _dynamics(model, f)
+    if model.m:
+        lines += template("inverse.c.in", **f)
     else:
-        lines += [f"void {N}_input_matrix(const double *q, double *B{P})", "{",
-                  "    (void)q;", "    (void)B;", *(["    (void)p;"] if extra else []), "}", "",
-                  f"void {N}_efforts(double t, const double *q, const double *{dq}, "
-                  f"double *tau{P})",
-                  "{", "    (void)t;", "    (void)q;", f"    (void){dq};", "    (void)tau;",
-                  *(["    (void)p;"] if extra else []), "}", ""]
-    if spherical:
-        lines += _leaf(model, names, prefix,
-                       f"void {N}_rates(const double *q, const double *u, double *dq)",
-                       {"dq": model.kinematic}, ["q", "u"], note=note) + [""]
+        lines += _unused(f"void {N}_inverse(double t, const double *q, const double *{f['dq']}, "
+                         f"const double *{f['ddq']},\n                 double *tau{f['P']})",
+                         ["t", "q", f["dq"], f["ddq"], "tau", *(["p"] if model.symbolic else [])])
+    return "\n".join(lines)
+
+
+def _unused(signature: str, arguments: list[str]) -> list[str]:
+    """A function that does nothing: ``signature`` and each argument marked used."""
+    return [*signature.split("\n"), "{", *(f"    (void){a};" for a in arguments), "}", ""]
+
+
+def _equations(model: ExportModel, f: dict, note: Callable[[str], None]) -> list[str]:
+    """The generated leaf functions: M (lower triangle, mirrored), F, B, the control
+    laws, with a spherical joint the rates and their Jacobian R, and K."""
+    N, P, dq, ddq = f["N"], f["P"], f["dq"], f["ddq"]
+    names = _names(model)
+    prefix = temporary_prefix(set(names.values()))
+    extra = ["p"] if model.symbolic else []
+
+    def leaf(signature, outputs, arrays, symmetric=None):
+        return _leaf(model, names, prefix, signature, outputs, arrays, symmetric=symmetric,
+                     note=note) + [""]
+    lower = sp.Matrix(model.n, model.n, lambda i, j: model.M[i, j] if j <= i else 0)
+    lines = leaf(f"void {N}_mass_matrix(const double *q, double *M{P})", {"M": lower},
+                 ["q", *extra], symmetric="M")
+    lines += leaf(f"void {N}_forcing(double t, const double *q, const double *{dq}, "
+                  f"double *F{P})", {"F": model.F}, ["t", "q", dq, *extra])
+    if model.m:
+        lines += leaf(f"void {N}_input_matrix(const double *q, double *B{P})", {"B": model.B},
+                      ["q", *extra])
+        lines += leaf(f"void {N}_efforts(double t, const double *q, const double *{dq}, "
+                      f"double *tau{P})", {"tau": model.laws}, ["t", "q", dq, *extra])
+    else:
+        lines += _unused(f"void {N}_input_matrix(const double *q, double *B{P})",
+                         ["q", "B", *extra])
+        lines += _unused(f"void {N}_efforts(double t, const double *q, const double *{dq}, "
+                         f"double *tau{P})", ["t", "q", dq, "tau", *extra])
+    if model.kinematic is not None:
+        lines += leaf(f"void {N}_rates(const double *q, const double *u, double *dq)",
+                      {"dq": model.kinematic}, ["q", "u"])
         lines.append("/* R = d(W(q) u)/dx: the first nq rows of the state Jacobian J */")
-        lines += _leaf(model, names, prefix,
-                       f"static void {N}_rates_jacobian(const double *q, const double *u, "
-                       "double *J)", {"J": model.R}, ["q", "u"], note=note) + [""]
+        lines += leaf(f"static void {N}_rates_jacobian(const double *q, const double *u, "
+                      "double *J)", {"J": model.R}, ["q", "u"])
         lines.append("/* K = [dG/dq - (dM/dq) du | dG/du], G = F + B tau(t, q, u): "
                      "n x (nq + n) */")
     else:
         lines.append("/* K = [dG/dq - (dM/dq) ddq | dG/d(dq)], G = F + B tau(t, q, dq): "
                      "n x 2n */")
-    lines += _leaf(model, names, prefix,
-                   f"static void {N}_partials(double t, const double *q, const double *{dq}, "
-                   f"const double *{ddq}, double *K{P})", {"K": model.K},
-                   ["t", "q", dq, ddq, *extra], note=note) + [""]
-    # -- linear algebra ------------------------------------------------------
-    lines += _linear_algebra(N, NQ, NE, n, m)
-    # -- the dynamics ----------------------------------------------------------
-    # NX: the state's size (row length of J); NJ: J's entries
+    lines += leaf(f"static void {N}_partials(double t, const double *q, const double *{dq}, "
+                  f"const double *{ddq}, double *K{P})", {"K": model.K},
+                  ["t", "q", dq, ddq, *extra])
+    return lines
+
+
+def _dynamics(model: ExportModel, f: dict) -> list[str]:
+    """``N_solve``, ``N_accelerations``, ``N_rhs`` and ``N_jacobian`` (dynamics.c.in):
+    NX the state's size (J's row length), NJ J's entries."""
+    N, Pa, NQ, NE, NC, ddq = f["N"], f["Pa"], f["NQ"], f["NE"], f["NC"], f["ddq"]
+    up, m, spherical = N.upper(), model.m, model.kinematic is not None
     NX, NJ = (f"{up}_N_STATES", f"{up}_N_STATES * {up}_N_STATES") if spherical else (
         f"2 * {NQ}", f"4 * {NQ} * {NQ}")
     tau_loop = ([f"    {N}_input_matrix(q, B{Pa});",
@@ -295,113 +320,34 @@ def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
                  [f"    for (i = 0; i < {NQ}; ++i)",
                   f"        for (j = 0; j < 2 * {NQ}; ++j)",
                   f"            J[i * 2 * {NQ} + j] = (j == {NQ} + i) ? 1.0 : 0.0;"])
-    lines += [
-        f"/* {ddq} solving M {ddq} = F + B tau; L gets the Cholesky factor of M (lower "
-        "triangle) */",
-        f"static int {N}_solve(double t, const double *q, const double *{dq}, const double *tau,",
-        f"                     double *{ddq}, double *L{P})",
-        "{",
-        *([f"    double B[{NQ} * {NE}];", "    int i, k;"] if m else ["    int i;"]),
-        f"    {N}_mass_matrix(q, L{Pa});",
-        f"    {N}_forcing(t, q, {dq}, {ddq}{Pa});",
-        *tau_loop,
-        f"    if ({N}_cholesky(L) != 0) {{",
-        f"        for (i = 0; i < {NQ}; ++i)",
-        f"            {ddq}[i] = NAN;",
-        "        return -1;",
-        "    }",
-        f"    {N}_cholesky_solve(L, {ddq});",
-        "    return 0;",
-        "}",
-        "",
-        f"int {N}_accelerations(double t, const double *q, const double *{dq}, const double *tau,",
-        f"                     double *{ddq}{P})",
-        "{",
-        f"    double L[{NQ} * {NQ}];",
-        f"    return {N}_solve(t, q, {dq}, tau, {ddq}, L{Pa});",
-        "}",
-        "",
-        f"void {N}_rhs(double t, const double *x, double *dx{P})",
-        "{",
-        *([f"    double tau[{NE}];"] if m else []),
-        *([] if spherical else ["    int i;"]),
-        *([f"    {N}_efforts(t, x, x + {NC}, tau{Pa});"] if m else []),
-        *rates,
-        f"    (void){N}_accelerations(t, x, x + {NC}, {'tau' if m else '0'}, dx + {NC}{Pa});",
-        "}",
-        "",
-        f"void {N}_jacobian(double t, const double *x, double *J{P})",
-        "{",
-        f"    double L[{NQ} * {NQ}], {ddq}[{NQ}], K[{NQ} * {NX}], column[{NQ}];",
-        *([f"    double tau[{NE}];"] if m else []),
-        "    int i, j;",
-        *([f"    {N}_efforts(t, x, x + {NC}, tau{Pa});"] if m else []),
-        f"    if ({N}_solve(t, x, x + {NC}, {'tau' if m else '0'}, {ddq}, L{Pa}) != 0) {{",
-        f"        for (i = 0; i < {NJ}; ++i)",
-        "            J[i] = NAN;",
-        "        return;",
-        "    }",
-        f"    {N}_partials(t, x, x + {NC}, {ddq}, K{Pa});",
-        *rate_rows,
-        f"    for (j = 0; j < {NX}; ++j) {{",
-        f"        for (i = 0; i < {NQ}; ++i)",
-        f"            column[i] = K[i * {NX} + j];",
-        f"        {N}_cholesky_solve(L, column);",
-        f"        for (i = 0; i < {NQ}; ++i)",
-        f"            J[({NC} + i) * {NX} + j] = column[i];",
-        "    }",
-        "}",
-        "",
-    ]
-    if m:
-        lines += [
-            f"void {N}_inverse(double t, const double *q, const double *{dq}, "
-            f"const double *{ddq},",
-            f"                 double *tau{P})",
-            "{",
-            f"    double M[{NQ} * {NQ}], r[{NQ}], B[{NQ} * {NE}];",
-            "    int i, j;",
-            f"    {N}_mass_matrix(q, M{Pa});",
-            f"    {N}_forcing(t, q, {dq}, r{Pa});",
-            f"    {N}_input_matrix(q, B{Pa});",
-            f"    for (i = 0; i < {NQ}; ++i) {{",
-            "        double s = -r[i];",
-            f"        for (j = 0; j < {NQ}; ++j)",
-            f"            s += M[i * {NQ} + j] * {ddq}[j];",
-            "        r[i] = s;",
-            "    }",
-            f"    {N}_pseudo_solve(B, r, tau);",
-            "}",
-            ""]
-    else:
-        lines += [
-            f"void {N}_inverse(double t, const double *q, const double *{dq}, "
-            f"const double *{ddq},",
-            f"                 double *tau{P})",
-            "{", "    (void)t;", "    (void)q;", f"    (void){dq};", f"    (void){ddq};",
-            "    (void)tau;",
-            *(["    (void)p;"] if extra else []), "}", ""]
-    return "\n".join(lines)
+    return template(
+        "dynamics.c.in", **f, NX=NX, NJ=NJ, tau="tau" if m else "0", tau_loop=tau_loop,
+        rates=rates, rate_rows=rate_rows,
+        solve_locals=[f"    double B[{NQ} * {NE}];", "    int i, k;"] if m else ["    int i;"],
+        tau_local=[f"    double tau[{NE}];"] if m else [],
+        rhs_locals=[] if spherical else ["    int i;"],
+        tau_call=[f"    {N}_efforts(t, x, x + {NC}, tau{Pa});"] if m else [])
 
 
-def _template(name: str, **fields) -> list[str]:
-    """The lines of the template ``name`` (beside this file), its ``${field}``s filled in
-    (string.Template)."""
-    text = resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
-    return Template(text).substitute(fields).split("\n")
+def _linear_algebra(model: ExportModel, f: dict) -> list[str]:
+    """M's Cholesky factorization ``cholesky`` and solve ``chosolve`` over the
+    structural nonzeros of its factor (factor.c.in around the text the derivatives'
+    extension compiles, ``recursive.derivatives.CHOLESKY``, with its tables of M's
+    zeros), ``N_cholesky_solve`` of one right side, and, with actuators,
+    ``N_pseudo_solve`` (pseudo_solve.c.in): the Jacobi SVD of A = B (m <= n) or B^T
+    (m > n), rows x cols with rows >= cols, and pinv(B) r = V S^+ U^T r (m <= n) or
+    U S^+ V^T r (m > n)."""
+    from ...numeric.recursive.derivatives import CHOLESKY, _factor_pattern
 
-
-def _linear_algebra(N: str, NQ: str, NE: str, n: int, m: int) -> list[str]:
-    """``N_cholesky`` and ``N_cholesky_solve`` (cholesky.c.in) and, with
-    actuators, ``N_pseudo_solve`` (pseudo_solve.c.in): the Jacobi SVD of
-    A = B (m <= n) or B^T (m > n), rows x cols with rows >= cols, and
-    pinv(B) r = V S^+ U^T r (m <= n) or U S^+ V^T r (m > n)."""
-    lines = _template("cholesky.c.in", N=N, NQ=NQ)
+    N, NE, n, m = f["N"], f["NE"], model.n, model.m
+    nonzero = [[model.M[i, j] != 0 for j in range(n)] for i in range(n)]
+    lines = template("factor.c.in", N=N, NQ=f["NQ"], pattern=_factor_pattern(nonzero),
+                     cholesky=CHOLESKY.split("\n"))
     if not m:
         return lines
     rows, cols = (n, m) if m <= n else (m, n)
     first, second = (("U", rows), ("V", cols)) if m <= n else (("V", cols), ("U", rows))
-    return lines + _template(
+    return lines + template(
         "pseudo_solve.c.in", N=N, n=n, m=m, rows=rows, cols=cols, largest=max(n, m),
         b_index=f"i * {NE} + j" if m <= n else f"j * {NE} + i",
         first=first[0], first_rows=first[1], second=second[0], second_rows=second[1])

@@ -15,7 +15,8 @@ from __future__ import annotations
 
 from sympy.printing.numpy import JaxPrinter
 
-from ...numeric.ir import python_expr, python_sum
+from ...numeric.ir import python_sum
+from ...numeric.printers import python_expr
 from .traced import Function, Traced
 
 CALLS = {"sin": "jnp.sin", "cos": "jnp.cos", "sqrt": "jnp.sqrt", "tanh": "jnp.tanh"}

@@ -59,33 +59,38 @@ def _help(name: str, summary: str, lines: list[str]) -> list[str]:
     return out
 
 
-def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, str]:
-    """One file per function, NAME_*.m; ``note`` hears which one is being generated."""
-    N, n, m, nq = model.name, model.n, model.m, model.nq
-    _, dq, ddq = model.arrays
-    names = _names(model)
-    prefix = temporary_prefix(set(names.values()), "w")
-    sym = model.symbolic
-    P = ", p" if sym else ""
-    common = [""] + [model.title(), "", *model.units_lines(1, "(", ")"), "", *model.law_lines(), "",
-                     *model.parameter_lines()]
-    if sym:
-        common += ["", f"p: parameters struct, default {N}_params() (the robot file's values)."]
-    out: dict[str, str] = {}
+class _Files:
+    """The files of one export: the model, its local names, ``P`` (the parameters'
+    argument, or empty), the help text every file ends with (``common``)."""
 
-    def default_p(count: int) -> list[str]:
-        if not (sym and count):         # count 0: a function without p
+    def __init__(self, model: ExportModel, note: Callable[[str], None]):
+        self.model, self.note, self.N = model, note, model.name
+        self.names = _names(model)
+        self.prefix = temporary_prefix(set(self.names.values()), "w")
+        self.P = ", p" if model.symbolic else ""
+        self.common = [""] + [model.title(), "", *model.units_lines(1, "(", ")"), "",
+                              *model.law_lines(), "", *model.parameter_lines()]
+        if model.symbolic:
+            self.common += ["", f"p: parameters struct, default {self.N}_params() (the robot "
+                            "file's values)."]
+
+    def default_p(self, count: int) -> list[str]:
+        """p = NAME_params() when the function gets fewer than ``count`` arguments
+        (count 0: a function without p)."""
+        if not (self.model.symbolic and count):
             return []
-        return [f"  if nargin < {count}", f"    p = {N}_params();", "  end"]
+        return [f"  if nargin < {count}", f"    p = {self.N}_params();", "  end"]
 
-    def leaf(fname, outvar, args, summary, doc, matrix, nargs, symmetric=False):
-        note(leaf_note({outvar: matrix}))
-        blk = block({"X": row_major(matrix)}, names, prefix)
+    def leaf(self, fname, outvar, args, summary, doc, matrix, nargs, symmetric=False):
+        """One generated function: unpack the inputs it uses, temporaries, the output's
+        nonzero entries (``symmetric``: the lower triangle, mirrored)."""
+        self.note(leaf_note({outvar: matrix}))
+        blk = block({"X": row_major(matrix)}, self.names, self.prefix)
         printer = _Printer(blk.names)
-        lines = [f"function {outvar} = {N}_{fname}({args})",
-                 *_help(f"{N}_{fname}", summary, doc + common)]
-        lines += default_p(nargs)
-        states, parameters = inputs_used(model, names, blk)
+        lines = [f"function {outvar} = {self.N}_{fname}({args})",
+                 *_help(f"{self.N}_{fname}", summary, doc + self.common)]
+        lines += self.default_p(nargs)
+        states, parameters = inputs_used(self.model, self.names, blk)
         lines += [f"  {local} = {array}({index + 1});" for local, array, index in states]
         lines += [f"  {local} = p.{local};" for local, _ in parameters]
         for temp, expr in blk.temporaries:
@@ -106,6 +111,30 @@ def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, 
         lines.append("end")
         return lines
 
+
+def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, str]:
+    """One file per function, NAME_*.m; ``note`` hears which one is being generated."""
+    f = _Files(model, note)
+    out, partials = _equations(f)
+    out.update(_dynamics(f, partials))
+    out[f"{f.N}_inverse.m"] = _inverse(f)
+    if model.symbolic:
+        fields = [f"  p.{f.names[par.symbol]} = {par.value!r};  % {par.kind} {par.name}"
+                  for par in model.parameters]
+        out[f"{f.N}_params.m"] = [
+            f"function p = {f.N}_params()",
+            *_help(f"{f.N}_params", "Parameters and gains of the robot file, as a struct.",
+                   ["p = " + f"{f.N.upper()}_PARAMS()"] + f.common),
+            "  p = struct();", *fields, "end"]
+    return {k: "\n".join(v) + "\n" for k, v in out.items()}
+
+
+def _equations(f: _Files) -> tuple[dict[str, list[str]], list[str]]:
+    """The files of M, F, B, the control laws (and the rates), and the lines of the
+    partials K (and R) that NAME_jacobian.m carries as local functions."""
+    model, N, P, leaf = f.model, f.N, f.P, f.leaf
+    n, (_, dq, _) = model.n, model.arrays
+    out: dict[str, list[str]] = {}
     lower = sp.Matrix(n, n, lambda i, j: model.M[i, j] if j <= i else 0)
     out[f"{N}_mass_matrix.m"] = leaf(
         "mass_matrix", "M", f"q{P}", "Mass matrix M(q), n x n, symmetric positive definite.",
@@ -136,17 +165,23 @@ def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, 
             "Coordinates' rates dq = W(q) u (nq x 1; a quaternion's: 1/2 q (x) (0, w)).",
             [f"dq = {N.upper()}_RATES(q, u), the kinematic differential equations."],
             model.kinematic, 0)
-    partials = [line for line in partials if not line.startswith("%")]
-    out[f"{N}_accelerations.m"] = [
+    return out, [line for line in partials if not line.startswith("%")]
+
+
+def _dynamics(f: _Files, partials: list[str]) -> dict[str, list[str]]:
+    """NAME_accelerations.m, NAME_rhs.m and NAME_jacobian.m (with the ``partials``)."""
+    model, N, P, common = f.model, f.N, f.P, f.common
+    n, nq, (_, dq, ddq) = model.n, model.nq, model.arrays
+    out = {f"{N}_accelerations.m": [
         f"function {ddq} = {N}_accelerations(t, q, {dq}, tau{P})",
         *_help(f"{N}_accelerations",
                f"Accelerations solving M(q) {ddq} = F(t, q, {dq}) + B(q) tau (open loop).",
                [f"{ddq} = {N.upper()}_ACCELERATIONS(t, q, {dq}, tau{P}), tau: m efforts."]
                + common),
-        *default_p(5),
+        *f.default_p(5),
         f"  {ddq} = {N}_mass_matrix(q{P}) \\ ({N}_forcing(t, q, {dq}{P}) + "
         f"{N}_input_matrix(q{P}) * tau(:));",
-        "end"]
+        "end"]}
     if model.kinematic is None:
         rhs_doc = ("State derivative dx/dt = [dq; ddq] under the control laws.",
                    f"dx = {N.upper()}_RHS(t, x{P}), x = [q; dq] (2n x 1); suits ode45 and "
@@ -167,39 +202,37 @@ def files(model: ExportModel, note: Callable[[str], None] = quiet) -> dict[str, 
     out[f"{N}_rhs.m"] = [
         f"function dx = {N}_rhs(t, x{P})",
         *_help(f"{N}_rhs", rhs_doc[0], [rhs_doc[1]] + common),
-        *default_p(3),
+        *f.default_p(3),
         *unpack,
         f"  dx = [{rates}; {N}_accelerations(t, q, {dq}, {N}_efforts(t, q, {dq}{P}){P})];",
         "end"]
     out[f"{N}_jacobian.m"] = [
         f"function J = {N}_jacobian(t, x{P})",
         *_help(f"{N}_jacobian", jacobian_doc[0], [jacobian_doc[1]] + common),
-        *default_p(3),
+        *f.default_p(3),
         *unpack,
         f"  {ddq} = {N}_accelerations(t, q, {dq}, {N}_efforts(t, q, {dq}{P}){P});",
         f"  J = [{rate_rows}; {N}_mass_matrix(q{P}) \\ "
         f"{N}_partials(t, q, {dq}, {ddq}{P})];",
         "end", "", *partials]
+    return out
+
+
+def _inverse(f: _Files) -> list[str]:
+    """NAME_inverse.m: B \\ r when B is square, else pinv(B) r."""
+    model, N, P = f.model, f.N, f.P
+    n, m, (_, dq, ddq) = model.n, model.m, model.arrays
     solve = ("B \\ r" if n == m else "pinv(B) * r")
     how = (f"tau = B \\ (M {ddq} - F) (B is square)." if n == m else
            f"tau = pinv(B) (M {ddq} - F): " + (
                "least squares, exact only if the motion is feasible." if m < n else
                f"the smallest efforts that give {ddq}."))
-    out[f"{N}_inverse.m"] = [
+    return [
         f"function tau = {N}_inverse(t, q, {dq}, {ddq}{P})",
         *_help(f"{N}_inverse", f"Inverse dynamics: the efforts that give accelerations {ddq}.",
-               [f"tau = {N.upper()}_INVERSE(t, q, {dq}, {ddq}{P}); " + how] + common),
-        *default_p(5),
+               [f"tau = {N.upper()}_INVERSE(t, q, {dq}, {ddq}{P}); " + how] + f.common),
+        *f.default_p(5),
         f"  B = {N}_input_matrix(q{P});",
         f"  r = {N}_mass_matrix(q{P}) * {ddq}(:) - {N}_forcing(t, q, {dq}{P});",
         f"  tau = {solve};" if m else "  tau = zeros(0, 1);",
         "end"]
-    if sym:
-        fields = [f"  p.{names[par.symbol]} = {par.value!r};  % {par.kind} {par.name}"
-                  for par in model.parameters]
-        out[f"{N}_params.m"] = [
-            f"function p = {N}_params()",
-            *_help(f"{N}_params", "Parameters and gains of the robot file, as a struct.",
-                   ["p = " + f"{N.upper()}_PARAMS()"] + common),
-            "  p = struct();", *fields, "end"]
-    return {k: "\n".join(v) + "\n" for k, v in out.items()}

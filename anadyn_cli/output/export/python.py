@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import builtins
 import keyword
-import textwrap
 from typing import Callable
 
 import sympy as sp
@@ -20,6 +19,7 @@ from sympy.printing.pycode import PythonCodePrinter
 
 from .model import (ExportModel, Named, block, inputs_used, leaf_note, local_names, quiet,
                     row_major, temporary_prefix)
+from .templates import template
 
 #: arguments and module-level names the generated functions use
 ARGUMENTS = {"t", "q", "dq", "ddq", "p", "x", "tau", "math", "PARAMETERS"}
@@ -125,7 +125,23 @@ def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
     names = local_names(model, RESERVED | set(model.arrays))
     prefix = temporary_prefix(set(names.values()), "_w")
     p = ", p=PARAMETERS" if model.symbolic else ""
-    pp = ", p" if model.symbolic else ""
+    lines = _constants(model)
+    for name, args, doc, key, matrix, shape in _leaves(model):
+        note(leaf_note({key: matrix}))
+        extra = p if name not in ("rates", "_rates_jacobian") else ""
+        lines += _leaf(model, names, prefix, name, f"{args}{extra}", doc, {key: matrix},
+                       {key: shape}) + ["", ""]
+    fields = {"p": p, "pp": ", p" if model.symbolic else "", "n": n, "n2": 2 * n, "m": m,
+              "nq": nq, "nx": nq + n, "dq": dq, "ddq": ddq}
+    dynamics = template("dynamics.py.in" if model.kinematic is None else
+                        "dynamics_spherical.py.in", **fields)[:-1]   # the file's last newline
+    return "\n".join(lines + template("solve.py.in", dynamics=dynamics, **fields))
+
+
+def _constants(model: ExportModel) -> list[str]:
+    """The module's docstring, import and constants (names, units, sizes, x(0) and the
+    parameters' values)."""
+    _, dq, _ = model.arrays
     doc = _doc(model).replace("\\", "\\\\").replace('"""', '\\"\\"\\"')
     lines = ['"""' + doc + '\n"""', "import math", "",
              f"NAME = {model.robot_name!r}",
@@ -136,14 +152,20 @@ def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
              *([f"SPEEDS = {tuple(u.name for u in model.rates)!r}",
                 f"SPEED_UNITS = {tuple(u.unit for u in model.rates)!r}"]
                if model.kinematic is not None else []),
-             f"N_COORDINATES = {nq}",
-             *([f"N_SPEEDS = {n}"] if model.kinematic is not None else []),
-             f"N_EFFORTS = {m}",
+             f"N_COORDINATES = {model.nq}",
+             *([f"N_SPEEDS = {model.n}"] if model.kinematic is not None else []),
+             f"N_EFFORTS = {model.m}",
              f"INITIAL_STATE = {model.initial_state!r}     # x(0) = [q, {dq}] of the robot file"]
     if model.symbolic:
         lines.append("PARAMETERS = {" + ", ".join(f"{q.name!r}: {q.value!r}"
                                                   for q in model.parameters) + "}")
-    lines += ["", ""]
+    return lines + ["", ""]
+
+
+def _leaves(model: ExportModel) -> list[tuple]:
+    """The generated functions: (name, arguments, docstring, output, its matrix, its
+    shape: vector or matrix)."""
+    _, dq, _ = model.arrays
     leaves = [
         ("mass_matrix", "q", "M(q): mass matrix, n x n (list of rows), symmetric positive "
          "definite.", "M", model.M, "matrix"),
@@ -154,154 +176,12 @@ def source(model: ExportModel, note: Callable[[str], None] = quiet) -> str:
         ("efforts", f"t, q, {dq}", f"tau(t, q, {dq}): actuator efforts under the robot file's "
          "control laws (m).", "tau", model.laws, "vector")]
     if model.kinematic is None:
-        leaves.append(("_partials", "t, q, dq, ddq", "K = [dG/dq - (dM/dq) ddq | dG/d(dq)], "
-                       "G = F + B tau(t, q, dq): n x 2n.", "K", model.K, "matrix"))
-    else:
-        leaves += [
-            ("_partials", "t, q, u, du", "K = [dG/dq - (dM/dq) du | dG/du], G = F + B "
-             "tau(t, q, u): n x (nq + n).", "K", model.K, "matrix"),
-            ("rates", "q, u", "dq = W(q) u: the coordinates' rates (nq; a quaternion's: "
-             "1/2 q (x) (0, w)).", "dq", model.kinematic, "vector"),
-            ("_rates_jacobian", "q, u", "R = d(W(q) u)/dx: nq x (nq + n), the coordinates' "
-             "rows of the state Jacobian.", "R", model.R, "matrix")]
-    for name, args, doc, key, matrix, shape in leaves:
-        note(leaf_note({key: matrix}))
-        extra = p if name not in ("rates", "_rates_jacobian") else ""
-        lines += _leaf(model, names, prefix, name, f"{args}{extra}", doc, {key: matrix},
-                       {key: shape}) + ["", ""]
-    if model.kinematic is None:
-        lines += textwrap.dedent(f'''\
-            def accelerations(t, q, dq, tau{p}):
-                """ddq solving M(q) ddq = F(t, q, dq) + B(q) tau for the given efforts tau."""
-                return _solve(t, q, dq, tau{pp})[0]
-
-
-            def rhs(t, x{p}):
-                """dx/dt = [dq, ddq] at x = [q, dq] under the control laws."""
-                q, dq = x[:{n}], x[{n}:{2 * n}]
-                return [float(v) for v in dq] + _solve(t, q, dq, efforts(t, q, dq{pp}){pp})[0]
-
-
-            def jacobian(t, x{p}):
-                """d(dx/dt)/dx at x = [q, dq] under the control laws: [[0, I], [M^-1 K]], 2n x 2n."""
-                q, dq = x[:{n}], x[{n}:{2 * n}]
-                ddq, L = _solve(t, q, dq, efforts(t, q, dq{pp}){pp})
-                K = _partials(t, q, dq, ddq{pp})
-                columns = [_cholesky_solve(L, [row[j] for row in K]) for j in range({2 * n})]
-                top = [[1.0 if j == {n} + i else 0.0 for j in range({2 * n})] for i in range({n})]
-                return top + [[columns[j][i] for j in range({2 * n})] for i in range({n})]
-            ''').splitlines()
-    else:
-        lines += textwrap.dedent(f'''\
-            def accelerations(t, q, u, tau{p}):
-                """du solving M(q) du = F(t, q, u) + B(q) tau for the given efforts tau."""
-                return _solve(t, q, u, tau{pp})[0]
-
-
-            def rhs(t, x{p}):
-                """dx/dt = [W(q) u, du] at x = [q, u] under the control laws."""
-                q, u = x[:{nq}], x[{nq}:{nq + n}]
-                return rates(q, u) + _solve(t, q, u, efforts(t, q, u{pp}){pp})[0]
-
-
-            def jacobian(t, x{p}):
-                """d(dx/dt)/dx at x = [q, u] under the control laws: [[R], [M^-1 K]],
-                R = d(W(q) u)/dx, {nq + n} x {nq + n}."""
-                q, u = x[:{nq}], x[{nq}:{nq + n}]
-                du, L = _solve(t, q, u, efforts(t, q, u{pp}){pp})
-                K = _partials(t, q, u, du{pp})
-                columns = [_cholesky_solve(L, [row[j] for row in K]) for j in range({nq + n})]
-                return _rates_jacobian(q, u) + [[columns[j][i] for j in range({nq + n})]
-                                                for i in range({n})]
-            ''').splitlines()
-    lines += ["", ""] + textwrap.dedent(f'''\
-        def inverse(t, q, {dq}, {ddq}{p}):
-            """Efforts tau = pinv(B) (M {ddq} - F) that give accelerations {ddq} at (t, q, {dq})."""
-            M = mass_matrix(q{pp})
-            F = forcing(t, q, {dq}{pp})
-            r = [sum(M[i][j] * {ddq}[j] for j in range({n})) - F[i] for i in range({n})]
-            return _pseudo_solve(input_matrix(q{pp}), r)
-
-
-        def _solve(t, q, dq, tau{p}):
-            """ddq and the Cholesky factor L of M (M ddq = F + B tau)."""
-            G = forcing(t, q, dq{pp})
-            B = input_matrix(q{pp})
-            G = [G[i] + sum(B[i][k] * tau[k] for k in range({m})) for i in range({n})]
-            L = _cholesky(mass_matrix(q{pp}))
-            return _cholesky_solve(L, G), L
-
-
-        def _cholesky(A):
-            """Lower L with A = L L^T; ValueError unless A is positive definite."""
-            n = len(A)
-            L = [[0.0] * n for _ in range(n)]
-            for j in range(n):
-                d = A[j][j] - sum(L[j][k] ** 2 for k in range(j))
-                if not d > 0.0:
-                    raise ValueError(f"mass matrix not positive definite (pivot {{j}})")
-                L[j][j] = math.sqrt(d)
-                for i in range(j + 1, n):
-                    L[i][j] = (A[i][j] - sum(L[i][k] * L[j][k] for k in range(j))) / L[j][j]
-            return L
-
-
-        def _cholesky_solve(L, b):
-            """(L L^T)^-1 b."""
-            n = len(L)
-            y = [0.0] * n
-            for i in range(n):
-                y[i] = (b[i] - sum(L[i][k] * y[k] for k in range(i))) / L[i][i]
-            for i in reversed(range(n)):
-                y[i] = (y[i] - sum(L[k][i] * y[k] for k in range(i + 1, n))) / L[i][i]
-            return y
-
-
-        def _pseudo_solve(B, r):
-            """pinv(B) r by a one-sided Jacobi SVD (Hestenes) of B or B^T; singular values
-            below max(n, m) eps sigma_max count as zero (MATLAB's pinv tolerance)."""
-            n, m = len(B), (len(B[0]) if B else 0)
-            if m == 0:
-                return []
-            wide = m > n
-            rows, cols = (m, n) if wide else (n, m)
-            U = [[B[j][i] if wide else B[i][j] for j in range(cols)] for i in range(rows)]
-            V = [[1.0 if i == j else 0.0 for j in range(cols)] for i in range(cols)]
-            eps = 2.220446049250313e-16
-            for _ in range(60):
-                rotated = False
-                for j in range(cols - 1):
-                    for k in range(j + 1, cols):
-                        alpha = sum(U[i][j] ** 2 for i in range(rows))
-                        beta = sum(U[i][k] ** 2 for i in range(rows))
-                        gamma = sum(U[i][j] * U[i][k] for i in range(rows))
-                        if not abs(gamma) > eps * math.sqrt(alpha * beta):
-                            continue
-                        rotated = True
-                        zeta = (beta - alpha) / (2.0 * gamma)
-                        tn = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + math.hypot(1.0, zeta))
-                        c = 1.0 / math.hypot(1.0, tn)
-                        s = c * tn
-                        for W in (U, V):
-                            for row in W:
-                                a, b = row[j], row[k]
-                                row[j], row[k] = c * a - s * b, s * a + c * b
-                if not rotated:
-                    break
-            sigma = [math.sqrt(sum(U[i][j] ** 2 for i in range(rows))) for j in range(cols)]
-            tol = max(n, m) * eps * max(sigma)
-            for j in range(cols):
-                if sigma[j] > tol:
-                    for row in U:
-                        row[j] /= sigma[j]
-            left, right = (V, U) if wide else (U, V)     # pinv(B) = right S^+ left^T
-            y = [sum(left[i][j] * r[i] for i in range(len(left))) / sigma[j]
-                 if sigma[j] > tol else 0.0 for j in range(cols)]
-            return [sum(right[i][j] * y[j] for j in range(cols)) for i in range(len(right))]
-        ''').splitlines()
-    lines += ["", "", 'if __name__ == "__main__":',
-              "    x = INITIAL_STATE",
-              '    print("robot", NAME, "at x =", x)',
-              f"    print(\"M =\", mass_matrix(x[:{nq}]))",
-              "    print(\"dx/dt =\", rhs(0.0, x))", ""]
-    return "\n".join(lines)
+        return leaves + [("_partials", "t, q, dq, ddq", "K = [dG/dq - (dM/dq) ddq | dG/d(dq)], "
+                          "G = F + B tau(t, q, dq): n x 2n.", "K", model.K, "matrix")]
+    return leaves + [
+        ("_partials", "t, q, u, du", "K = [dG/dq - (dM/dq) du | dG/du], G = F + B "
+         "tau(t, q, u): n x (nq + n).", "K", model.K, "matrix"),
+        ("rates", "q, u", "dq = W(q) u: the coordinates' rates (nq; a quaternion's: "
+         "1/2 q (x) (0, w)).", "dq", model.kinematic, "vector"),
+        ("_rates_jacobian", "q, u", "R = d(W(q) u)/dx: nq x (nq + n), the coordinates' "
+         "rows of the state Jacobian.", "R", model.R, "matrix")]

@@ -77,6 +77,34 @@ __all__ = ["study", "AccuracyStudy", "Row", "Reference", "RigidRuns", "ATOL_RATI
            "figure", "plot_bytes", "reference_lines", "table", "write"]
 
 
+def _over_budget(method: str, rtol: float, atol: float, t: float, grid,
+                 max_calls: int, ref) -> Row:
+    """The row of a run stopped at ``max_calls`` RHS calls at time ``t``, with the calls
+    the whole grid would take at its pace."""
+    horizon = grid[-1] - grid[0]
+    reached = max(t - grid[0], 0.0)
+    projected = (f"; ~{max_calls * horizon / reached:.2g} projected"
+                 if reached > 0 else "")
+    return Row(method, rtol, atol, "over budget", rhs_calls=max_calls,
+               reference=ref.describe(), note=(
+                   f"stopped at {max_calls} RHS calls, t = {t:.3g} of "
+                   f"{grid[-1]:g} s{projected}"))
+
+
+def _drift_and_events(row: Row, model: NumericModel, rigid, grid, solution,
+                      ref) -> None:
+    """A closed chain's constraint drift (part of the error) and, with contacts, the
+    error of the contact events' times against the reference's, into ``row``."""
+    if constrained.is_constrained(model):
+        row.drift = max(constrained.drift(model, solution.t, solution.x))
+    if rigid is not None:                     # the located events' times
+        row.event_error = contact_run.event_error(
+            rigid.events[(row.method, row.rtol)], rigid.events[(ref.method, ref.rtol)])
+    elif model.contact_names:                 # the contact events' times
+        row.event_error = contact_run.event_error(*(
+            contact_run.run_report(model, grid, x).events() for x in (solution.x, ref.x)))
+
+
 def study(model: NumericModel, methods=integrators.METHODS,
           tolerances=TOLERANCES, repeats: int = REPEATS, max_calls: int = MAX_CALLS,
           reference_calls: int = REFERENCE_CALLS,
@@ -127,16 +155,9 @@ def study(model: NumericModel, methods=integrators.METHODS,
                 progress(method, rtol)
             solution, wall = runner(method, rtol, atol, max_calls)
             if solution.over_budget is not None:
-                over = solution.over_budget
                 over_at = rtol
-                horizon = grid[-1] - grid[0]
-                reached = max(over.t - grid[0], 0.0)
-                projected = (f"; ~{max_calls * horizon / reached:.2g} projected"
-                             if reached > 0 else "")
-                rows.append(Row(method, rtol, atol, "over budget", rhs_calls=max_calls,
-                                reference=ref.describe(), note=(
-                                    f"stopped at {max_calls} RHS calls, t = {over.t:.3g} of "
-                                    f"{grid[-1]:g} s{projected}")))
+                rows.append(_over_budget(method, rtol, atol, solution.over_budget.t, grid,
+                                         max_calls, ref))
                 continue
             if not solution.success:
                 rows.append(Row(method, rtol, atol, "failed", solution.method,
@@ -151,15 +172,7 @@ def study(model: NumericModel, methods=integrators.METHODS,
             rows.append(Row(method, rtol, atol, "ok", solution.method, max_error, final_error,
                             min(walls), solution.rhs_calls, solution.jacobian_calls,
                             solution.steps, ref.describe()))
-            if constrained.is_constrained(model):     # constraint drift, part of the error
-                rows[-1].drift = max(constrained.drift(model, solution.t, solution.x))
-            if rigid is not None:                     # the located events' times
-                rows[-1].event_error = contact_run.event_error(
-                    rigid.events[(method, rtol)], rigid.events[(ref.method, ref.rtol)])
-            elif model.contact_names:                 # the contact events' times
-                rows[-1].event_error = contact_run.event_error(*(
-                    contact_run.run_report(model, grid, x).events() for x in (solution.x,
-                                                                              ref.x)))
+            _drift_and_events(rows[-1], model, rigid, grid, solution, ref)
     timings["study"] = time.perf_counter() - start
     return AccuracyStudy(robot, settings.t_end, settings.output_step, grid, refs, given_up,
                          ref_error, rows, repeats, max_calls, timings, computation(model))

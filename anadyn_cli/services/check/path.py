@@ -36,11 +36,14 @@ class Probe:
 
 
 def actuator_power(model: NumericModel, t: float, x: np.ndarray) -> float:
-    """P = tau . (B^T dq) = dq . (B tau): the actuators' power at one state."""
+    """P = tau . (B^T dq) = dq . (B tau): the actuators' power at one state.  B is the
+    recursive path's ``actuation`` (B alone, the same numbers as ``mfb``'s, kept
+    once when constant: no M per call), else the closed forms' ``mfb``."""
     n, nq = model.n, model.nq
     q, dq = x[:nq], x[nq:]
     tau = np.asarray(model.efforts(t, q, dq), dtype=float).reshape(-1)
-    _, _, B = model.mfb(t, q, dq)
+    B = (model.actuation(t, q, dq) if model.evaluator == "recursive"
+         else model.mfb(t, q, dq)[2])
     return float(dq @ (np.asarray(B).reshape(n, -1) @ tau))
 
 

@@ -95,20 +95,8 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
     """
     timings = {} if timings is None else timings
     info = model.info
-    if model.contact_names:
-        contact_gap = positive("contact_gap", contact_gap)
-        if contact_resolution not in contact_inverse.RESOLUTIONS:
-            raise SettingError("contact_resolution", "is one of "
-                               + ", ".join(contact_inverse.RESOLUTIONS)
-                               + f", got {contact_resolution!r}")
-    if measured is not None and step is not None:
-        raise SettingError("output_step", "does not apply to a measured motion: its efforts "
-                                          "are computed at its samples")
-    step = positive("output_step", step if step is not None
-                    else info.simulation.output_step or DEFAULT_STEP)
-    tolerance = positive("roundtrip_tolerance", tolerance)
-    if segment is not None:
-        positive("roundtrip_segment", segment)
+    step, tolerance, contact_gap = _settings(model, step, tolerance, segment, measured,
+                                             contact_gap, contact_resolution)
     start = time.perf_counter()
     motion = model.motion if measured is None else _measured(model, measured)
     if model.quaternions and measured is None:
@@ -116,16 +104,7 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
     if not (constrained.is_constrained(model) or model.quaternions or model.contact_names):
         check_counts(info)
     timings["trajectory"] = time.perf_counter() - start
-    if measured is not None:
-        t, step = measured.t, measured.duration / (len(measured.t) - 1)
-    elif step > motion.duration:
-        raise SettingError("output_step", f"{step:g} s is longer than the trajectory's "
-                                          f"duration {motion.duration:g} s")
-    elif motion.duration / step > MAX_POINTS:
-        raise SettingError("output_step", f"{step:g} s gives more than {MAX_POINTS:.0e} "
-                                          f"points over {motion.duration:g} s")
-    else:
-        t = trajectory_grid(motion.duration, step)
+    t, step = _grid(motion, measured, step)
     if constrained.is_constrained(model):         # closed chains (numeric.constrained)
         return _closed_chain(model, motion, t, step, roundtrip, tolerance, segment, timings)
     start = time.perf_counter()
@@ -133,16 +112,9 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
         q, dq, ddq = motion(t) if measured is None else (motion.q, motion.dq, motion.ddq)
         demand, B = InverseDynamics(model, motion).demand(t, q, dq, ddq)
     elapsed = time.perf_counter() - start
-    speeds, speed_map = [*model.speeds], SpeedMap(model.nq, model.quaternions)
+    speed_map = SpeedMap(model.nq, model.quaternions)
     check_quaternions(model, speed_map, t, q)
-    for name, values, names in (("q", q, model.coordinates), ("dq", dq, speeds),
-                                ("ddq", ddq, ["d" + u for u in speeds])):
-        bad = ~np.isfinite(values)
-        if bad.any():
-            k, i = np.argwhere(bad)[0]
-            raise ModelError(f"the prescribed {name} of {names[i]} "
-                             f"is not finite at t = {t[k]:g} s", source=info.source,
-                             path="trajectory")
+    _check_finite(model, t, q, dq, ddq)
     B = np.broadcast_to(B, (len(t), model.n, len(model.effort_names)))
     free, wrench_columns = free_rows(model, B)
     support = share = None
@@ -156,7 +128,7 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
     dynamics = InverseDynamics(model, motion, free, support)
     rows = row_names(model, speed_map)
     check_actuation(info, t, B[:, dynamics.actuated], [rows[k] for k in dynamics.actuated],
-                     slides_hint(model, speed_map, B, free))
+                    slides_hint(model, speed_map, B, free))
     start = time.perf_counter()
     with np.errstate(all="ignore"):
         tau, wrench = dynamics.apportion(demand, B)
@@ -170,17 +142,71 @@ def inverse(model: NumericModel, step: float | None = None, roundtrip: bool = Tr
                            wrench=wrench if free else None, wrench_columns=wrench_columns,
                            contact=share)
     if share is not None:
-        scale = float(np.abs(share.remainder).max(initial=0.0)     # the motion's largest
-                      + np.abs(share.forces).max(initial=0.0))     # force, about
-        result.contact_report = support.assess(t, share.forces, share.active, wrench, scale)
-        if result.contact_report["samples"]:
-            from ...numeric.cache import warn
-            warn(unsupported_line(result))
+        _assess_contacts(result, support, share, wrench)
     result.limits = limits.check(info, t, q, speed_map.rates(q, dq, ddq)[0], tau)
     if roundtrip:
         result.roundtrip = round_trip(result, tolerance, segment)
         timings["roundtrip"] = result.roundtrip.wall
     return result
+
+
+def _settings(model: NumericModel, step, tolerance, segment, measured, contact_gap,
+              contact_resolution) -> tuple:
+    """(step, tolerance, contact_gap) checked (SettingError when one is out of range):
+    the step the file's output step (else ``DEFAULT_STEP``) when not given."""
+    if model.contact_names:
+        contact_gap = positive("contact_gap", contact_gap)
+        if contact_resolution not in contact_inverse.RESOLUTIONS:
+            raise SettingError("contact_resolution", "is one of "
+                               + ", ".join(contact_inverse.RESOLUTIONS)
+                               + f", got {contact_resolution!r}")
+    if measured is not None and step is not None:
+        raise SettingError("output_step", "does not apply to a measured motion: its efforts "
+                                          "are computed at its samples")
+    step = positive("output_step", step if step is not None
+                    else model.info.simulation.output_step or DEFAULT_STEP)
+    tolerance = positive("roundtrip_tolerance", tolerance)
+    if segment is not None:
+        positive("roundtrip_segment", segment)
+    return step, tolerance, contact_gap
+
+
+def _grid(motion, measured: MeasuredMotion | None, step: float) -> tuple[np.ndarray, float]:
+    """(t, step): a measured motion's samples and their mean spacing, else the grid of
+    ``step`` over the trajectory (SettingError when it is longer or too fine)."""
+    if measured is not None:
+        return measured.t, measured.duration / (len(measured.t) - 1)
+    if step > motion.duration:
+        raise SettingError("output_step", f"{step:g} s is longer than the trajectory's "
+                                          f"duration {motion.duration:g} s")
+    if motion.duration / step > MAX_POINTS:
+        raise SettingError("output_step", f"{step:g} s gives more than {MAX_POINTS:.0e} "
+                                          f"points over {motion.duration:g} s")
+    return trajectory_grid(motion.duration, step), step
+
+
+def _check_finite(model: NumericModel, t, q, dq, ddq) -> None:
+    """ModelError at the first prescribed q, dq or ddq that is not finite."""
+    speeds = [*model.speeds]
+    for name, values, names in (("q", q, model.coordinates), ("dq", dq, speeds),
+                                ("ddq", ddq, ["d" + u for u in speeds])):
+        bad = ~np.isfinite(values)
+        if bad.any():
+            k, i = np.argwhere(bad)[0]
+            raise ModelError(f"the prescribed {name} of {names[i]} "
+                             f"is not finite at t = {t[k]:g} s", source=model.info.source,
+                             path="trajectory")
+
+
+def _assess_contacts(result: InverseResult, support, share, wrench) -> None:
+    """``result.contact_report``: the samples the contact forces cannot support, scaled
+    by the motion's largest force (a warning when there are any)."""
+    scale = float(np.abs(share.remainder).max(initial=0.0)     # the motion's largest
+                  + np.abs(share.forces).max(initial=0.0))     # force, about
+    result.contact_report = support.assess(result.t, share.forces, share.active, wrench, scale)
+    if result.contact_report["samples"]:
+        from ...numeric.cache import warn
+        warn(unsupported_line(result))
 
 
 def _measured(model: NumericModel, measured: MeasuredMotion) -> MeasuredMotion:

@@ -9,17 +9,25 @@ With x = [q, dq], u = tau and M(q) ddq = F(t, q, dq) + B(q) tau:
 (differentiating M ddq = F + B u gives M d(ddq) = d(F + B u) - (dM) ddq, so M
 is never inverted symbolically).  A holds the efforts u0 fixed (open loop);
 A_closed_loop is the Jacobian of the file's closed loop u = tau_c(t, x),
-K_cl = K(u = tau_c(x0)) + B d(tau_c)/dx, with zero efforts when the file has
-no controller (the motion ``simulate`` integrates).
+d(ddq)/dx (u = tau_c(x0)) + M^-1 B d(tau_c)/dx, with zero efforts when the file
+has no controller (the motion ``simulate`` integrates).
+
+Two evaluators give these numbers (``equations.Road``; ``numeric.build``'s words,
+recorded as ``evaluator`` and ``formulation``): "recursive", the default on open
+trees of revolute and prismatic joints, runs the generated derivatives of the
+recursive Newton-Euler algorithm (``numeric.derivatives``: d(ddq)/dx and M^-1 B
+directly, no symbolic equations); "closed-form" differentiates the closed forms of
+Kane's or Lagrange's equations (``formulation``) symbolically as above, the road of
+a robot with a spherical joint.  The control laws' Jacobian is symbolic in both.
 
 The operating point is the file's initial state at t = 0 unless ``at``
 says otherwise; its efforts u0 are the given ones, else the controller's at
 that state, else the static holding efforts u0 = pinv(B) (-F(t, q, 0))
 (exact when B is square and invertible; their residual is reported); ``efforts``
 chooses otherwise (holding efforts about a set point, for a controller design).
-``equilibrium`` first solves F(t, q, 0) + B tau(q) = 0 for q near the given
-one (scipy.optimize.root, analytic Jacobian), with tau the controller's law at
-rest, the given efforts, or zero without either.
+``equilibrium`` first solves ddq(t, q, 0, tau(q)) = 0 (F + B tau = 0) for q
+near the given one (scipy.optimize.root, analytic Jacobian), with tau the
+controller's law at rest, the given efforts, or zero without either.
 
 Eigenvalues of A and A_closed_loop with natural frequency |lambda| and
 damping ratio -Re(lambda)/|lambda|.  The controllability rank of (A, B) is the
@@ -28,7 +36,8 @@ a time (the staircase form; better conditioned than the rank of
 [B, AB, ..., A^(2n-1) B]), and each mode gets the Popov-Belevitch-Hautus test.
 
 One module per job: ``point`` (the operating point, the equilibrium search),
-``equations`` (the equations differentiated once), ``state_space`` (``linearize``),
+``equations`` (the evaluators' interface, the closed forms differentiated once),
+``recursive`` (the recursive evaluator), ``state_space`` (``linearize``),
 ``modes`` (eigenvalues, controllability), ``parametric`` (the symbolic form),
 ``writing`` (files, summary, report).
 """

@@ -1,5 +1,21 @@
-"""The equations of motion of a linearization, differentiated once, and their
-values at a point."""
+"""The equations a linearization evaluates, by either of two evaluators with one
+interface (``Road``): ``Equations``, the closed forms of a formulation (Kane or
+Lagrange) differentiated symbolically, and ``recursive.RecursiveEquations``, the
+generated derivatives of the recursive Newton-Euler algorithm
+(``numeric.derivatives``).  At a time t and state (q, dq) (q: nq coordinates, dq: n
+speeds; tau: m efforts):
+
+    terms(t, q, dq)               -> M (n, n), F (n,), B (n, m)
+    accelerations(t, q, dq, tau)  -> ddq solving M ddq = F + B tau
+    slopes(t, q, dq, tau)         -> d(ddq)/dx (n, nq + n) at fixed tau, d(ddq)/dtau = M^-1 B
+    law(t, q, dq)                 -> the control laws' efforts tau_c (m,)
+    law_slopes(t, q, dq)          -> d(tau_c)/dx (m, nq + n)
+
+(the laws: the file's controller, ``laws`` None without one; both evaluators
+differentiate its few expressions symbolically).  A value that is not finite raises
+ValueError, a mass matrix that is not positive definite numpy.linalg.LinAlgError;
+``at_point`` words both for the operating point.
+"""
 from __future__ import annotations
 
 import numpy as np
@@ -12,58 +28,96 @@ from ...symbolic.derivative import Derivative
 TIME = sp.Symbol("t", real=True)
 
 
-class Equations:
-    """R = F + B tau - M ddq with tau and ddq as symbols, its Jacobian in x, the laws'."""
+def jacobian(exprs: sp.Matrix, variables: list) -> sp.Matrix:
+    """d(exprs)/d(variables), one column per variable (one ``Derivative`` each: its
+    memo serves every expression)."""
+    columns = [list(map(Derivative({v: 1}), exprs)) for v in variables]
+    return sp.Matrix(len(exprs), len(variables), lambda i, j: columns[j][i])
 
-    def __init__(self, robot, eom):
-        self.q, self.dq = list(eom.q), list(eom.dq)
-        self.ddq, self.tau = list(eom.ddq), list(eom.efforts)
+
+class Road:
+    """What both evaluators share: the symbols of the state and the efforts, the sizes,
+    and the control laws with their Jacobian (module docstring)."""
+    formulation: str | None = None
+    evaluator: str = "closed-form"
+    kinematic = None                # dq = W(q) u with a spherical joint (closed forms)
+
+    def __init__(self, robot, q, dq, tau, symbolic: bool = False):
+        from ...numeric.closed_form import control_laws
+
+        self.q, self.dq, self.tau = list(q), list(dq), list(tau)
         self.n, self.m = len(self.dq), len(self.tau)      # speeds (the size of M), efforts
         self.nq = len(self.q)                              # coordinates: n, or more with a
-        self.kinematic = eom.kinematic                     # quaternion (dq = W(q) u)
+        self.laws = self.Lx = None                         # quaternion
+        if robot.controller is not None and self.m:
+            self.laws = control_laws(robot, symbolic)
+            self.Lx = jacobian(self.laws, self.q + self.dq)
+
+    def values(self, t, q, dq, tau=()) -> dict:
+        """The symbols' values: t, q, dq and the efforts ``tau`` when given."""
+        return {TIME: t, **dict(zip(self.q, q)), **dict(zip(self.dq, dq)),
+                **dict(zip(self.tau, tau))}
+
+    def law(self, t, q, dq) -> np.ndarray:
+        return Evaluator(self.values(t, q, dq)).vector(self.laws)
+
+    def law_slopes(self, t, q, dq) -> np.ndarray:
+        return Evaluator(self.values(t, q, dq)).matrix(self.Lx)
+
+    def closed_loop_slopes(self, t, q, dq) -> np.ndarray:
+        """d(ddq)/dx (n, nq + n) with the efforts under the laws, tau = tau_c(t, x)
+        (zero without a controller)."""
+        if self.laws is None:
+            return self.slopes(t, q, dq, np.zeros(self.m))[0]
+        D, G = self.slopes(t, q, dq, self.law(t, q, dq))
+        return D + G @ self.law_slopes(t, q, dq)
+
+
+class Equations(Road):
+    """The closed forms M, F, B of ``eom`` (``symbolic.formulations.derive``) and the
+    Jacobian Rx in x of R = F + B tau - M ddq, tau and ddq as symbols: M d(ddq)/dx = Rx
+    at the point's tau and ddq."""
+
+    def __init__(self, robot, eom):
+        super().__init__(robot, eom.q, eom.dq, eom.efforts, eom.symbolic)
+        self.formulation = eom.formulation
+        self.ddq = list(eom.ddq)
+        self.kinematic = eom.kinematic
         self.M, self.F, self.B = sp.Matrix(eom.M), sp.Matrix(eom.F), sp.Matrix(eom.B)
         R = self.F - self.M * sp.Matrix(self.ddq)
         if self.m:
             R += self.B * sp.Matrix(self.tau)
-        self.R = R
-        self.laws = None
-        if robot.controller is not None and self.m:
-            from ...numeric.closed_form import control_laws
-            self.laws = control_laws(robot, eom.symbolic)
-        self.Rx = self._jacobian(R)
-        self.Lx = self._jacobian(self.laws) if self.laws is not None else None
+        self.Rx = jacobian(R, self.q + self.dq)
 
-    def _jacobian(self, exprs: sp.Matrix) -> sp.Matrix:
-        columns = []
-        for variable in self.q + self.dq:
-            d = Derivative({variable: 1})
-            columns.append([d(e) for e in exprs])
-        return sp.Matrix(len(exprs), self.nq + self.n, lambda i, j: columns[j][i])
+    def terms(self, t, q, dq):
+        ev = Evaluator(self.values(t, q, dq))
+        return (ev.matrix(self.M), ev.vector(self.F),
+                ev.matrix(self.B) if self.m else np.zeros((self.n, 0)))
 
-    def values(self, t, q, dq, tau=None, ddq=None, constants=None) -> dict:
-        values = dict(constants or {})
-        values[TIME] = t
-        values.update(zip(self.q, q))
-        values.update(zip(self.dq, dq))
-        if tau is not None:
-            values.update(zip(self.tau, tau))
-        if ddq is not None:
-            values.update(zip(self.ddq, ddq))
-        return values
+    def accelerations(self, t, q, dq, tau) -> np.ndarray:
+        M, F, B = self.terms(t, q, dq)
+        return spd_solve(M, F + B @ tau)
+
+    def slopes(self, t, q, dq, tau):
+        M, F, B = self.terms(t, q, dq)
+        ddq = spd_solve(M, F + B @ tau)
+        K = Evaluator({**self.values(t, q, dq, tau), **dict(zip(self.ddq, ddq))}).matrix(self.Rx)
+        return np.linalg.solve(M, K), np.linalg.solve(M, B)
 
 
-def evaluate(ev: Evaluator, what: str, function):
+def spd_solve(M: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """M^-1 rhs; numpy.linalg.LinAlgError unless M is positive definite."""
+    np.linalg.cholesky(M)
+    return np.linalg.solve(M, rhs)
+
+
+def at_point(where: str, what: str, function):
+    """``function()``, its failures as NumericalError at the operating point ``where``."""
     try:
         return function()
-    except ValueError as err:
-        raise NumericalError(f"cannot evaluate the {what} at the operating point ({err})") \
-            from None
-
-
-def solve_spd(M: np.ndarray, rhs: np.ndarray, where: str) -> np.ndarray:
-    try:
-        np.linalg.cholesky(M)
-        return np.linalg.solve(M, rhs)
     except np.linalg.LinAlgError:
         raise NumericalError(f"the mass matrix is singular or not positive definite at {where}") \
+            from None
+    except ValueError as err:
+        raise NumericalError(f"cannot evaluate the {what} at the operating point ({err})") \
             from None

@@ -8,7 +8,8 @@ from .point import OperatingPoint
 
 
 def symbolic_form(robot, formulation: str, point: OperatingPoint) -> dict:
-    """E dx = A_bar dx + B_bar du at the point, parameters (and gains) as symbols.
+    """E dx = A_bar dx + B_bar du at the point, parameters (and gains) as symbols, from
+    the closed forms of ``formulation`` (whichever evaluator gave the numbers).
 
     E = diag(I, M(q0)); A_bar = [[0, I], [K]]; B_bar = [[0], [B(q0)]].  K
     holds the point's efforts (the actuator symbols) and accelerations (the
@@ -44,7 +45,8 @@ def symbolic_form(robot, formulation: str, point: OperatingPoint) -> dict:
     result = {"parameters": sorted(str(s) for s in (E.free_symbols | A_bar.free_symbols
                                                      | B_bar.free_symbols)
                                    - set(eq.tau) - set(eq.ddq)),
-              "form": "E dx/dt = A_bar dx + B_bar du", "E": E, "A_bar": A_bar, "B_bar": B_bar}
+              "form": "E dx/dt = A_bar dx + B_bar du", "formulation": formulation,
+              "E": E, "A_bar": A_bar, "B_bar": B_bar}
     closed = None
     if eq.laws is not None:
         laws = eq.laws.applyfunc(at)

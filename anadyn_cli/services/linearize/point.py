@@ -11,8 +11,7 @@ import sympy as sp
 from ...errors import NumericalError, SettingError
 from ...model import expressions
 from ...model.text import split_items
-from ...numeric.pointwise import Evaluator
-from .equations import TIME, Equations
+from .equations import TIME, Road
 
 #: max |ddq| (in the coordinates' units / s^2) for a state to count as an equilibrium
 EQUILIBRIUM_TOL = 1e-9
@@ -119,37 +118,35 @@ def check_efforts(robot, efforts: str, given: dict | None = None) -> None:
         raise SettingError("efforts", f"{efforts}: {robot.name} has no actuators")
 
 
-def find_equilibrium(eq: Equations, t0: float, q0: np.ndarray, fixed_tau, state) -> np.ndarray:
-    """q near q0 with F(t0, q, 0) + B(q) tau = 0, tau the law at rest or ``fixed_tau``."""
+def find_equilibrium(eq: Road, t0: float, q0: np.ndarray, fixed_tau, state) -> np.ndarray:
+    """q near q0 with ddq(t0, q, 0, tau) = 0 (F + B tau = 0), tau the law at rest or
+    ``fixed_tau``: Powell's hybrid method on ddq with its Jacobian d(ddq)/dq (+ M^-1 B
+    d(tau)/dq under the laws)."""
     from scipy.optimize import root
 
     n = eq.n
     zeros = np.zeros(n)
 
     def residual(q):
-        tau = (fixed_tau if fixed_tau is not None
-               else Evaluator(eq.values(t0, q, zeros)).vector(eq.laws))
-        ev = Evaluator(eq.values(t0, q, zeros, tau, zeros))
-        r = ev.vector(eq.R)
-        J = ev.matrix(eq.Rx)[:, :n]
-        if fixed_tau is None:
-            J = J + ev.matrix(eq.B) @ ev.matrix(eq.Lx)[:, :n]
-        return r, J, ev.matrix(eq.M)
+        tau = fixed_tau if fixed_tau is not None else eq.law(t0, q, zeros)
+        D, G = eq.slopes(t0, q, zeros, tau)
+        J = D[:, :n] if fixed_tau is not None else D[:, :n] + G @ eq.law_slopes(t0, q, zeros)[:, :n]
+        return eq.accelerations(t0, q, zeros, tau), J
 
     def accelerations(q) -> float:
-        r, _, M = residual(q)
-        return float(np.max(np.abs(np.linalg.solve(M, r))))
+        tau = fixed_tau if fixed_tau is not None else eq.law(t0, q, zeros)
+        return float(np.max(np.abs(eq.accelerations(t0, q, zeros, tau))))
 
     try:
         if accelerations(q0) <= EQUILIBRIUM_TOL:
             return q0
-        solution = root(lambda q: residual(q)[:2], q0, jac=True, method="hybr",
-                        options={"xtol": 1e-14})
+        solution = root(residual, q0, jac=True, method="hybr", options={"xtol": 1e-14})
         q = np.asarray(solution.x, dtype=float)
         left = accelerations(q)
     except (ValueError, np.linalg.LinAlgError) as err:
         raise NumericalError(f"equilibrium search from {point_text(state[:n], q0, [])} "
-                             f"failed: {err}") from None
+                             f"failed: {str(err) or 'the mass matrix is not positive definite'}") \
+            from None
     if not left <= EQUILIBRIUM_TOL:
         raise NumericalError(
             f"no static equilibrium found near {point_text(state[:n], q0, [])}: the search "
@@ -172,7 +169,7 @@ def point_text(names: list[str], q, dq) -> str:
     return "(" + ", ".join(f"{n} = {v:.6g}" for n, v in zip(names, [*q, *dq])) + ")"
 
 
-def start_point(robot, eq: Equations, given: dict, efforts: str, equilibrium: bool,
+def start_point(robot, eq: Road, given: dict, efforts: str, equilibrium: bool,
                 state: list[str]):
     """The point before its efforts are evaluated: (exact values by symbol, t0, q0, dq0,
     where the efforts come from, the fixed efforts (None: evaluated at the point),

@@ -9,8 +9,8 @@ import numpy as np
 import sympy as sp
 
 from ...errors import SettingError
-from ...numeric.pointwise import Evaluator
-from .equations import Equations, evaluate, solve_spd
+from . import recursive
+from .equations import Equations, Road, at_point, spd_solve
 from .modes import controllability_rank, modes
 from .parametric import as_strings, symbolic_form
 from .point import (EQUILIBRIUM_TOL, OperatingPoint, check_efforts, parse_at, point_text,
@@ -40,126 +40,148 @@ class Linearization:
     symbolic: dict | None = None              # the matrices below as text (linearize.json)
     symbolic_matrices: dict = field(default_factory=dict)   # name -> SymPy Matrix
     timings: dict = field(default_factory=dict)
+    evaluator: str = "closed-form"            # what ran the numbers (numeric.build's words)
 
 
-def linearize(robot, formulation: str = "kane", at: str | None = None,
+def linearize(robot, formulation: str | None = None, at: str | None = None,
               equilibrium: bool = False, symbolic: bool = False,
-              timings: dict | None = None, eom=None, efforts: str = "auto") -> Linearization:
+              timings: dict | None = None, eom=None, efforts: str = "auto",
+              evaluator: str | None = None) -> Linearization:
     """Linearize ``robot`` (a validated Robot) about the operating point (see module doc).
 
     ``efforts``: where the point's efforts come from unless ``at`` gives them: "auto"
     (the controller, else holding, else zero), "controller", "holding" (static holding
-    efforts, e.g. to design a controller about a set point), "zero"."""
-    from ...symbolic.formulations import derive
-
+    efforts, e.g. to design a controller about a set point), "zero".  ``evaluator``
+    and ``formulation`` choose the numbers' road as ``numeric.build`` does
+    (``equations_of``); ``eom``: the closed forms to differentiate, when the caller
+    has them."""
     from ...model.constraints import refuse_closed_chain
 
     timings = {} if timings is None else timings
     refuse_closed_chain(robot, "linearize")
     robot.refuse_contacts("linearizations (linearize)")
     given = parse_at(at, robot)
-    n, m = len(robot.speeds), len(robot.actuators)
+    n = len(robot.speeds)
     check_efforts(robot, efforts, given)
     if equilibrium and efforts == "holding":
         raise SettingError("equilibrium", "with efforts 'holding': holding efforts make a "
                                           "state at rest an equilibrium by construction; give "
                                           "the state in 'at'")
-    start = time.perf_counter()
-    if eom is None:
-        eom = derive(robot, formulation)
-    timings["derive"] = time.perf_counter() - start
-    start = time.perf_counter()
-    eq = Equations(robot, eom)
-    timings["differentiate"] = time.perf_counter() - start
+    eq = equations_of(robot, formulation, evaluator, eom, timings)
     start = time.perf_counter()
 
     names = [c.name for c in robot.coordinates]
     state = names + ["d" + c for c in names]
-    if eom.kinematic is not None:       # the point is given in [q, u]; A on the tangent space
+    if eq.kinematic is not None:        # the point is given in [q, u]; A on the tangent space
         refuse_on_sphere(robot, given, equilibrium, symbolic)
         state = names + [u.name for u in robot.speeds]
     exact, t0, q0, dq0, source, fixed_tau, searched = start_point(
         robot, eq, given, efforts, equilibrium, state)
 
     # efforts at the point
-    ev = Evaluator(eq.values(t0, q0, dq0))
-    M0 = evaluate(ev, "mass matrix", lambda: ev.matrix(eq.M))
-    F0 = evaluate(ev, "forcing", lambda: ev.vector(eq.F))
-    B0 = evaluate(ev, "input matrix", lambda: ev.matrix(eq.B)) if m else np.zeros((n, 0))
     where = f"t = {t0:g} s, " + point_text(state, q0, dq0)
-    law0 = (evaluate(ev, "control laws", lambda: ev.vector(eq.laws))
-            if eq.laws is not None else np.zeros(m))
+    M0, F0, B0 = at_point(where, "mass matrix, forcing and input matrix",
+                          lambda: eq.terms(t0, q0, dq0))
+    law0 = (at_point(where, "control laws", lambda: eq.law(t0, q0, dq0))
+            if eq.laws is not None else np.zeros(eq.m))
     holding_residual = None
     if source == "controller":
         tau0 = law0
     elif source == "holding":
-        at_rest = Evaluator(eq.values(t0, q0, np.zeros(n)))
-        F_rest = evaluate(at_rest, "forcing", lambda: at_rest.vector(eq.F))
+        F_rest = at_point(where, "forcing", lambda: eq.terms(t0, q0, np.zeros(n))[1])
         tau0 = np.linalg.pinv(B0) @ -F_rest
         holding_residual = float(np.max(np.abs(B0 @ tau0 + F_rest)))
     else:
         tau0 = fixed_tau
-    ddq0 = solve_spd(M0, F0 + B0 @ tau0, where)
+    ddq0 = at_point(where, "accelerations", lambda: spd_solve(M0, F0 + B0 @ tau0))
     is_equilibrium = bool(np.all(dq0 == 0) and np.max(np.abs(ddq0)) <= EQUILIBRIUM_TOL)
 
-    A, Bss, A_cl = state_matrices(eq, (t0, q0, dq0), tau0, ddq0, law0, (M0, F0, B0), where)
+    A, Bss, A_cl = at_point(where, "derivatives",
+                            lambda: state_matrices(eq, (t0, q0, dq0), tau0))
     timings["evaluate"] = time.perf_counter() - start
 
     point = OperatingPoint(t0, q0, dq0, tau0, ddq0, source, is_equilibrium, searched,
                            holding_residual, exact)
     units = ([c.unit for c in robot.coordinates] + [c.unit + "/s" for c in robot.coordinates])
     point_state, point_units = [], []
-    if eom.kinematic is not None:
+    if eq.kinematic is not None:
         point_state = names + [u.name for u in robot.speeds]
         point_units = [c.unit for c in robot.coordinates] + [u.unit for u in robot.speeds]
         state, units = tangent_state(robot)
     result = Linearization(
-        robot=robot.name, source=robot.source, formulation=eom.formulation, state=state,
+        robot=robot.name, source=robot.source, formulation=eq.formulation, state=state,
         inputs=[a.name for a in robot.actuators], units=units, point=point, A=A, B=Bss,
         A_closed_loop=A_cl, has_controller=eq.laws is not None,
         eigenvalues=modes(A, Bss), eigenvalues_closed_loop=modes(A_cl),
         controllability_rank=controllability_rank(A, Bss), timings=timings,
-        point_state=point_state, point_units=point_units)
+        point_state=point_state, point_units=point_units, evaluator=eq.evaluator)
     if symbolic:
         start = time.perf_counter()
-        result.symbolic_matrices = symbolic_form(robot, formulation, point)
+        result.symbolic_matrices = symbolic_form(robot, formulation or "kane", point)
         result.symbolic = {k: (as_strings(v) if isinstance(v, sp.MatrixBase) else v)
                            for k, v in result.symbolic_matrices.items()}
         timings["symbolic"] = time.perf_counter() - start
     return result
 
 
-def state_matrices(eq: Equations, x0, tau0, ddq0, law0, terms, where: str):
+def equations_of(robot, formulation: str | None, evaluator: str | None, eom,
+                 timings: dict) -> Road:
+    """The road to the numbers: the closed forms of ``eom``, or of ``formulation``
+    ("kane", "lagrange") when it is named or ``evaluator`` is "closed-form" (Kane's
+    then), else the recursive evaluator (``recursive.RecursiveEquations``) when it
+    covers the robot, else Kane's closed forms; SettingError for a wrong choice
+    (``evaluator`` "recursive" with a formulation, or on a robot it does not cover)."""
+    from ...numeric.build import EVALUATORS, FORMULATIONS
+
+    if evaluator is not None and evaluator not in EVALUATORS:
+        raise SettingError("evaluator", f"must be {' or '.join(EVALUATORS)}, got {evaluator!r}")
+    if formulation is not None and formulation not in FORMULATIONS:
+        raise SettingError("formulation", f"must be {' or '.join(FORMULATIONS)}, "
+                                          f"got {formulation!r}")
+    if evaluator == "recursive" and (formulation is not None or eom is not None):
+        raise SettingError("evaluator", f"recursive derives no symbolic equations; drop the "
+                                        f"formulation ({formulation or eom.formulation}) or "
+                                        "use closed-form")
+    if evaluator == "recursive" and not recursive.covers(robot):
+        raise SettingError("evaluator", f"recursive linearizes revolute and prismatic joints; "
+                                        f"{robot.name} has a spherical joint: use closed-form, "
+                                        "the default there")
+    start = time.perf_counter()
+    if eom is None and formulation is None and evaluator != "closed-form" \
+            and recursive.covers(robot):
+        eq = recursive.RecursiveEquations(robot)
+        timings["derive"] = time.perf_counter() - start         # the generated derivatives
+        return eq
+    if eom is None:
+        from ...symbolic.formulations import derive
+
+        eom = derive(robot, formulation or "kane")
+    timings["derive"] = time.perf_counter() - start
+    start = time.perf_counter()
+    eq = Equations(robot, eom)
+    timings["differentiate"] = time.perf_counter() - start
+    return eq
+
+
+def state_matrices(eq: Road, x0, tau0):
     """(A, B, A_closed_loop) at x0 = (t0, q0, dq0) with the point's efforts ``tau0``
-    and accelerations ``ddq0``, the laws' efforts ``law0`` and terms = (M, F, B) there
-    (the package docstring)."""
+    held (A, B) or the laws' (A_closed_loop; zero efforts without a controller)."""
     t0, q0, dq0 = x0
-    M0, F0, B0 = terms
     n, m = eq.n, eq.m
     rows, to_tangent = tangent_rows(eq, q0, dq0)
-    # open loop: efforts held at tau0
-    ev_open = Evaluator(eq.values(t0, q0, dq0, tau0, ddq0))
-    K = evaluate(ev_open, "derivatives", lambda: ev_open.matrix(eq.Rx)) @ to_tangent
+    D, G = eq.slopes(t0, q0, dq0, tau0)
     A = np.zeros((2 * n, 2 * n))
     A[:n] = rows
-    A[n:, :] = np.linalg.solve(M0, K)
+    A[n:, :] = D @ to_tangent
     Bss = np.zeros((2 * n, m))
-    if m:
-        Bss[n:, :] = np.linalg.solve(M0, B0)
-    # closed loop: u = tau_c(t, x), zero without a controller
-    ddq_c = solve_spd(M0, F0 + B0 @ law0, where)
-    ev_closed = Evaluator(eq.values(t0, q0, dq0, law0, ddq_c))
-    K_c = evaluate(ev_closed, "derivatives", lambda: ev_closed.matrix(eq.Rx))
-    if eq.Lx is not None:
-        K_c = K_c + B0 @ evaluate(ev_closed, "control laws' derivatives",
-                                   lambda: ev_closed.matrix(eq.Lx))
+    Bss[n:, :] = G
     A_cl = np.zeros((2 * n, 2 * n))
     A_cl[:n] = rows
-    A_cl[n:, :] = np.linalg.solve(M0, K_c @ to_tangent)
+    A_cl[n:, :] = eq.closed_loop_slopes(t0, q0, dq0) @ to_tangent
     return A, Bss, A_cl
 
 
-def tangent_rows(eq: Equations, q0, dq0) -> tuple[np.ndarray, np.ndarray]:
+def tangent_rows(eq: Road, q0, dq0) -> tuple[np.ndarray, np.ndarray]:
     """(the first n rows of A, T = dx/d(dx_tangent) ((nq + n) x 2n)).  Without a
     spherical joint: [0, I] and the identity.  With one, each quaternion's
     perturbation is a rotation vector dtheta in body axes, q = q0 (x) (1, dtheta/2):

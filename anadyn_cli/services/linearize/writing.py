@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import files as output
+from ...numeric.build import describe
 from .state_space import Linearization
 
 
@@ -17,7 +18,7 @@ def summary(result: Linearization) -> dict:
     names = (result.point_state or result.state)[:len(p.q)]
     rates = result.point_state[len(p.q):] if result.point_state else names
     return {
-        "robot": result.robot, "formulation": result.formulation, "evaluator": "closed-form",
+        "robot": result.robot, "formulation": result.formulation, "evaluator": result.evaluator,
         "state": result.state, "inputs": result.inputs, "units": result.units,
         "x0": [*map(float, p.q), *map(float, p.dq)], "u0": list(map(float, p.tau)),
         "operating_point": {
@@ -91,7 +92,8 @@ def report(result: Linearization) -> str:
     state = ", ".join(f"{s} = {v:.6g} {u}" for s, v, u in
                       zip(result.point_state or result.state, [*p.q, *p.dq],
                           result.point_units or units))
-    lines = [f"{result.robot} ({result.formulation}) at t = {p.t:g} s: {state}"]
+    lines = [f"{result.robot} ({describe(result.formulation, result.evaluator)}) at "
+             f"t = {p.t:g} s: {state}"]
     source = {"given": "given", "controller": "the controller's", "none": "zero",
               "holding": "static holding"}[p.efforts_from]
     if result.inputs:
@@ -127,8 +129,8 @@ def report(result: Linearization) -> str:
                  f"{', '.join(_complex(e).strip() for e in uncontrollable) or 'none'})")]
     if result.symbolic is not None:
         s = result.symbolic
-        lines += ["", f"symbolic ({s['form']}; parameters {', '.join(s['parameters']) or 'none'};"
-                      f" {s['note']}):"]
+        lines += ["", f"symbolic ({s['formulation']}: {s['form']}; parameters "
+                      f"{', '.join(s['parameters']) or 'none'}; {s['note']}):"]
         for key in ("A", "B", "A_closed_loop") if "A" in s else ("E", "A_bar", "B_bar"):
             if key in s:
                 lines.append(f"  {key} = {s[key]}")

@@ -111,12 +111,8 @@ def _bounds(model: ParametricModel, margin: float):
     return np.array(rows).reshape(-1, 3), initial
 
 
-def excite(model: ParametricModel, base: BaseParameters | None = None, period: float = 10.0,
-           harmonics: int = 5, samples: int = 100, margin: float = 0.9, seed: int = 0,
-           iterations: int = 100, output_step: float = 0.01) -> Excitation:
-    """The exciting trajectory (module docstring)."""
-    from scipy.optimize import minimize
-
+def _check_settings(period, harmonics, samples, margin, iterations, output_step) -> None:
+    """SettingError for a setting of ``excite`` out of its range."""
     for name, value, low in (("period", period, 0), ("harmonics", harmonics, 0),
                              ("samples", samples, 1), ("iterations", iterations, 0),
                              ("output_step", output_step, 0)):
@@ -124,6 +120,28 @@ def excite(model: ParametricModel, base: BaseParameters | None = None, period: f
             raise SettingError(name, f"must be above {low}, got {value!r}")
     if not 0 < margin <= 1:
         raise SettingError("margin", f"must be above 0 and at most 1, got {margin!r}")
+
+
+def _start(model: ParametricModel, limits: np.ndarray, offsets: np.ndarray,
+           t: np.ndarray, period: float, harmonics: int, seed: int) -> np.ndarray:
+    """The optimizer's first point: the ``offsets`` and random coefficients (``seed``)
+    scaled so that the motion at ``t`` spans a quarter of the narrowest range."""
+    n = len(model.coordinates)
+    rng = np.random.default_rng(seed)
+    a0, b0 = rng.normal(size=(n, harmonics)), rng.normal(size=(n, harmonics))
+    q0 = series(t, period, np.zeros(n), a0, b0)[0] @ model.J.T
+    half = (limits[:, 1] - limits[:, 0]) / 2
+    scale = 0.25 * np.min(half / np.maximum(np.abs(q0).max(0), 1e-12))
+    return np.concatenate([offsets, (a0 * scale).ravel(), (b0 * scale).ravel()])
+
+
+def excite(model: ParametricModel, base: BaseParameters | None = None, period: float = 10.0,
+           harmonics: int = 5, samples: int = 100, margin: float = 0.9, seed: int = 0,
+           iterations: int = 100, output_step: float = 0.01) -> Excitation:
+    """The exciting trajectory (module docstring)."""
+    from scipy.optimize import minimize
+
+    _check_settings(period, harmonics, samples, margin, iterations, output_step)
     base = base or base_parameters(model)
     n, L = len(model.coordinates), harmonics
     limits, initial = _bounds(model, margin)
@@ -173,12 +191,7 @@ def excite(model: ParametricModel, base: BaseParameters | None = None, period: f
             parts.append((effort_limits[bounded] - np.abs(efforts[:, bounded])).ravel())
         return np.concatenate(parts)
 
-    rng = np.random.default_rng(seed)
-    a0, b0 = rng.normal(size=(n, L)), rng.normal(size=(n, L))
-    q0 = series(t_opt, period, np.zeros(n), a0, b0)[0] @ model.J.T
-    half = (limits[:, 1] - limits[:, 0]) / 2
-    scale = 0.25 * np.min(half / np.maximum(np.abs(q0).max(0), 1e-12))
-    x0 = np.concatenate([start_offsets, (a0 * scale).ravel(), (b0 * scale).ravel()])
+    x0 = _start(model, limits, start_offsets, t_opt, period, L, seed)
     solution = minimize(objective, x0, method="SLSQP",
                         constraints=[{"type": "ineq", "fun": constraints}],
                         options={"maxiter": iterations, "ftol": 1e-6})
