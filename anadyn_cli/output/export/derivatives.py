@@ -82,7 +82,8 @@ def _sizes(code) -> dict[str, int]:
 def _about(code, name: str) -> list[str]:
     n, m, k = _sizes(code).values()
     lines = [f"Derivatives of {name}'s dynamics M(q) ddq = F(t, q, dq) + B(q) tau, generated "
-             "by anadyn", "from the recursive Newton-Euler algorithm (forward mode, no finite "
+             "by anadyn", "from the recursive Newton-Euler algorithm (its analytic derivatives or "
+             "forward-mode", "differentiation, whichever costs fewer operations; no finite "
              "differences).", "The efforts tau are given (open loop, not the file's control "
              "laws) but in the closed-loop", "parameter derivatives.", "",
              f"n = {n} coordinates: {', '.join(code.coordinates)}",
