@@ -25,8 +25,9 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_an_imported_urdf_is_not_parsed_again(tmp_path, monkeypatch, capsys):
-    from anadyn_cli.model import urdf
+    from anadyn_cli.model import library, urdf
     monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "cache"))
+    library._announced.clear()       # warnings said earlier in this process: said again
     command = ["simulate", str(ROOT / "robots/double_pendulum.urdf"), "--fix-base",
                "--t-end", "0.05", "--no-plot", "--out"]
     assert main([*command, str(tmp_path / "first")]) == 0
@@ -36,7 +37,6 @@ def test_an_imported_urdf_is_not_parsed_again(tmp_path, monkeypatch, capsys):
     def no_import(*args, **kwargs):
         raise AssertionError("the URDF was imported again")
     monkeypatch.setattr(urdf, "import_urdf", no_import)
-    from anadyn_cli.model import library
     library._announced.clear()                  # said again, as by a new process
     assert main([*command, str(tmp_path / "second")]) == 0
     second = capsys.readouterr().err
