@@ -1,9 +1,10 @@
 """The recursive evaluator of a linearization: ``RecursiveEquations``, the interface
 of ``equations.Road`` on the generated derivatives of the recursive Newton-Euler
 algorithm (``numeric.derivatives``: exact, the analytic derivatives of the traced
-recursions or their forward-mode differentiation, no symbolic equations of motion).  Open trees of revolute and
-prismatic joints (their couplings, springs, dampers, friction and loads too); a
-spherical joint is the closed forms' (``covers``)."""
+recursions or their forward-mode differentiation, no symbolic equations of
+motion).  Open trees of revolute and prismatic joints (their couplings, springs,
+dampers, friction and loads too); a spherical joint is the closed forms'
+(``covers``)."""
 from __future__ import annotations
 
 import numpy as np
