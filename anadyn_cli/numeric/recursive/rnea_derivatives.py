@@ -60,7 +60,7 @@ from dataclasses import dataclass, field
 
 from ..ir import ZERO, Ex
 from .plan import Plan
-from .spatial import Vec, add, cross, dot, emitv, matTvec, matvec, scale, skew_ex
+from .spatial import Vec, add, cross, dot, emitv, matTvec, matvec, product, scale, skew_ex
 from .tracer import Tracer
 
 Motion = tuple  # (linear Vec, angular Vec)
@@ -138,8 +138,7 @@ def _body_inertia(P, b, R: list[list[Ex]], o: Vec) -> _Inertia:
     m = b.mass
     hr = emitv(P, matvec(R, [Ex.const(x) for x in b.h]))
     IO = [[Ex.const(x) for x in row] for row in b.I_O]
-    RI = [[P.emit(sum((R[r][k] * IO[k][c] for k in range(3)), ZERO)) for c in range(3)]
-          for r in range(3)]
+    RI = product(P, R, IO)
     rot = [[sum((RI[r][k] * R[c][k] for k in range(3)), ZERO) for c in range(3)]
            for r in range(3)]
     # - m [o]^2 - [o][hr] - [hr][o] = o.(c + hr) 1 - o c^T - hr o^T, c = hr + m o
@@ -174,12 +173,6 @@ class _Pass:
     dVdq: dict = field(default_factory=dict)
     dAdq: dict = field(default_factory=dict)
     dAdv: dict = field(default_factory=dict)
-
-
-def _product(P, A, B, transpose_B: bool) -> list[list[Ex]]:
-    """A B (or A B^T), entries emitted."""
-    return [[P.emit(sum((A[r][k] * (B[c][k] if transpose_B else B[k][c]) for k in range(3)),
-                        ZERO)) for c in range(3)] for r in range(3)]
 
 
 def groups(pl: Plan) -> dict[int, int]:
@@ -234,7 +227,7 @@ def _poses(T: Tracer, group: int, reference: int | None):
         up = bodies[up].parent
     for c in reversed(chain):
         E, r = frames[c]
-        W, ow = _product(P, W, E, True), emitv(P, add(ow, matvec(W, r)))
+        W, ow = product(P, W, E, True), emitv(P, add(ow, matvec(W, r)))
     minus_g = [Ex.const(-g) for g in T.plan.gravity]
     R, o = {}, {}
     parent = (W, ow)
@@ -244,7 +237,7 @@ def _poses(T: Tracer, group: int, reference: int | None):
         c = reference
         while True:
             E, r = frames[c]
-            Rp = _product(P, R[c], E, False)
+            Rp = product(P, R[c], E, False)
             op = emitv(P, [o[c][k] - x for k, x in enumerate(matvec(Rp, r))])
             if c == group:
                 parent = (Rp, op)
@@ -256,7 +249,7 @@ def _poses(T: Tracer, group: int, reference: int | None):
         if i not in R and (i == group or bodies[i].parent in R):
             E, r = frames[i]
             Rp, op = parent if i == group else (R[bodies[i].parent], o[bodies[i].parent])
-            R[i], o[i] = _product(P, Rp, E, True), emitv(P, add(op, matvec(Rp, r)))
+            R[i], o[i] = product(P, Rp, E, True), emitv(P, add(op, matvec(Rp, r)))
     return R, o, parent, gravity
 
 

@@ -60,10 +60,15 @@ def skew_ex(v: Vec) -> list[list[Ex]]:
     return [[ZERO, -v[2], v[1]], [v[2], ZERO, -v[0]], [-v[1], v[0], ZERO]]
 
 
+def product(P: Program, A, B, transpose_B: bool = False) -> list[list[Ex]]:
+    """A B, or A B^T (3 x 3, entries emitted)."""
+    return [[P.emit(sum((A[r][k] * (B[c][k] if transpose_B else B[k][c]) for k in range(3)),
+                        ZERO)) for c in range(3)] for r in range(3)]
+
+
 def congruence(P: Program, A, E, symmetric: bool):
     """E^T A E (entries emitted; symmetric: the upper triangle, mirrored)."""
-    AE = [[P.emit(sum((A[r][k] * E[k][c] for k in range(3)), ZERO)) for c in range(3)]
-          for r in range(3)]
+    AE = product(P, A, E)
     out = [[None] * 3 for _ in range(3)]
     for r in range(3):
         for c in range(3):
