@@ -247,11 +247,12 @@ def csv_text(header: list[str], columns: list[np.ndarray]) -> str:
     """CSV with a header row; each number as the shortest text that reads back to
     the same double (Python's ``repr``: 0.08, not 0.080000000000000002), and
     never a negative zero."""
-    lines = [",".join(header)]
+    text = ",".join(header) + "\n"
     if columns:
         table = np.column_stack([np.asarray(c, dtype=float) for c in columns]) + 0.0
-        lines += [",".join(map(float.__repr__, row)) for row in table.tolist()]
-    return "\n".join(lines) + "\n"
+        if len(table):              # the list's text: repr of every float, in one C loop
+            text += str(table.tolist())[2:-2].replace(", ", ",").replace("],[", "\n") + "\n"
+    return text
 
 
 def write_csv(path: Path, header: list[str], columns: list[np.ndarray]) -> None:

@@ -110,8 +110,8 @@ def test_the_balance_catches_a_wrong_actuator_power(monkeypatch):
 
     def wrong(compiled, t, x):
         n = compiled.n
-        tau = np.asarray(compiled.efforts(t, x[:n], x[n:]), dtype=float).reshape(-1)
-        return float(x[n:] @ tau)
+        tau = np.asarray(compiled.efforts(t, x[:n], x[n:]), dtype=float)
+        return np.sum(x[n:] * tau, axis=0)
 
     monkeypatch.setattr(stability.path, "actuator_power", wrong)
     broken = stability.check(compiled, t_end=3.0)

@@ -8,7 +8,8 @@ once, over a robot's numeric tables.
   operations);
 - spherical joints (quaternion coordinates, body angular-velocity speeds) and
   floating bases: against the traced recursive path at 20 random states (1e-12;
-  the Jacobian 1e-6, central differences; its quaternion rows exactly), each way
+  the Jacobian 1e-6, the control laws' part by central differences; its quaternion
+  rows exactly; ``test_generic_jacobian`` holds the kernel's own part to 1e-12), each way
   to the accelerations, and Solo12 against Pinocchio's free-flyer
   (``pinocchio_mapped``, 1e-9);
 - what it refuses (loads, nonlinear displacements): the generated code runs;
@@ -152,14 +153,14 @@ def test_kernel_matches_pinocchio(name, kernel):
         kernel.mass(tables.ints, tables.doubles, q, M)
         assert rel(M, A.T @ Mp @ A) < 1e-12
         if tables.mode == generic.tables.IDENTITY and not pas.any():
-            # the Jacobian (central differences) against Pinocchio's ABA derivatives
+            # the Jacobian (exact, forward mode) against Pinocchio's ABA derivatives
             J = np.empty((2 * n, 2 * n))
             kernel.jac(tables.ints, tables.doubles, np.concatenate([q, dq]), e, J)
             ep = np.empty(nm)
             ep[index] = e
             d_q, d_v, _ = pin.computeABADerivatives(model, data, qp, vp, ep)
-            assert rel(J[n:, :n], d_q[np.ix_(index, index)]) < 1e-6
-            assert rel(J[n:, n:], d_v[np.ix_(index, index)]) < 1e-6
+            assert rel(J[n:, :n], d_q[np.ix_(index, index)]) < 1e-10
+            assert rel(J[n:, n:], d_v[np.ix_(index, index)]) < 1e-10
             assert np.array_equal(J[:n], np.eye(2 * n)[n:])
 
 
@@ -189,8 +190,8 @@ def test_kernel_matches_generated_code(path, mode, kernel):
         assert rel(model.jacobian(t, x), reference.jacobian(t, x)) < 1e-5
     q = rng.uniform(-1, 1, (n, 5))
     assert rel(model.efforts(np.zeros(5), q, q), reference.efforts(np.zeros(5), q, q)) < 1e-15
-    # energy is not the kernel's: the generated Python, built when first asked for
-    assert rel(model.energy(q, q)[1], reference.energy(q, q)[1]) == 0.0
+    for a, b in zip(model.energy(q, q), reference.energy(q, q)):     # T and V
+        assert rel(a, b) < 1e-12
 
 
 # ------------------------------------------------------ spherical joints --
@@ -345,6 +346,63 @@ def test_a_cold_run_served_by_the_kernel_gives_the_warm_results(path, tmp_path, 
     assert not generic.enabled()
 
 
+def test_check_integrands_are_the_kernels_cold_and_warm(tmp_path, monkeypatch, kernel):
+    """``check`` on panda.urdf (joint damping): the cold run on the kernel, the warm run
+    on the robot's C with the kernel's integrands over the tables stored in its cache
+    entry, and the generated integrands (ANADYN_GENERIC=0) agree on the dissipated
+    energy and the energy balance to the run's tolerance."""
+    import json
+
+    from anadyn_cli.cli import main
+    from anadyn_cli.numeric import build
+    monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("ANADYN_NATIVE", raising=False)
+    monkeypatch.setattr(generic, "_fork", lambda work: work())
+    generic._KERNEL.clear()
+    path = str(ROOT / "robots/panda.urdf")
+    runs = []
+    for k, switch in enumerate(("1", "1", "0")):
+        monkeypatch.setenv("ANADYN_GENERIC", switch)
+        out = tmp_path / f"run{k}"
+        assert main(["check", path, "--t-end", "0.5", "--out", str(out)]) in (0, 1)
+        runs.append(json.loads((out / "check.json").read_text()))
+    monkeypatch.setenv("ANADYN_GENERIC", "1")
+    warm = build.numeric_model(path, use_cache=True)
+    assert isinstance(warm.integrands, generic.Energies)
+    assert [r["code"].split(" (")[0] for r in runs] == ["generic kernel", "native C", "native C"]
+    dissipated = [r["dissipated_final"] for r in runs]
+    assert dissipated[0] > 0 and np.ptp(dissipated) < 1e-6 * dissipated[0]
+    assert all(r["energy_error"] < 1e-8 for r in runs)
+
+
+@pytest.mark.parametrize("path", ["robots/panda.urdf", "robots/drives/rr_drives.yaml",
+                                  "ball_on_arm"])
+def test_kernel_energies_and_powers_match_the_generated_ones(path, kernel):
+    """``check``'s integrands: T, V (gravity and springs) and the power joint damping
+    and friction dissipate, from the kernel's tables, against the generated code's
+    (the kinematics' closed forms, ``closed_form.forces_source``, or the traced
+    velocities with a spherical joint) at 7 random states, 1e-12; whether the robot
+    has such forces, as the generated code says."""
+    from anadyn_cli.numeric.closed_form import forces_source
+    from anadyn_cli.numeric.model import run_generated
+
+    robot = spherical_robot(path) if "/" not in path else load_robot(ROOT / path)
+    pl, _, model, reference = generic_model(robot, kernel)
+    rng = np.random.default_rng(5)
+    q, u = rng.uniform(-1, 1, (model.nq, 7)), rng.uniform(-1, 1, (model.n, 7))
+    for c in model.quaternions:
+        q[list(c)] /= np.linalg.norm(q[list(c)], axis=0)
+    for a, b in zip(model.energy(q, u), reference.energy(q, u)):
+        assert rel(a, b) < 1e-12
+    t = np.linspace(0, 1, 7)
+    if pl.spherical:
+        expected = reference.powers(t, q, u)
+    else:
+        expected = np.moveaxis(run_generated(forces_source(robot))["powers"](t, *q, *u), -1, 0)
+    assert model.has_forces
+    assert rel(model.powers(t, q, u), expected) < 1e-12 and np.all(expected[1] > 0)
+
+
 @pytest.mark.parametrize("path", ["configs/chain6.yaml", "robots/satellite.yaml"])
 def test_a_run_on_the_kernel_needs_none_of_the_generated_code(path, kernel):
     """``simulate`` on a GenericModel whose generated code (``full``) may not be
@@ -364,6 +422,24 @@ def test_a_run_on_the_kernel_needs_none_of_the_generated_code(path, kernel):
     assert result.solution.success and len(result.t) == 21
     if pl.spherical:
         assert 0.0 <= result.quaternion_drift < 1e-9
+
+
+@pytest.mark.parametrize("path", ["robots/panda.urdf", "robots/drives/rr_drives.yaml"])
+def test_a_check_on_the_kernel_needs_none_of_the_generated_code(path, kernel):
+    """``check`` (energies, dissipated power, efforts, M, the Jacobian) on a GenericModel
+    whose generated code may not be built, and its energy balance closes."""
+    from anadyn_cli.services.check import check
+    robot = load_robot(ROOT / path)
+    pl = recursive.plan(robot)
+    tables, _ = generic.pack(pl)
+
+    def full():
+        raise AssertionError("a cold check built the robot's generated code")
+    model = generic.GenericModel(RobotInfo.from_robot(robot), generic.Layout.of(pl), tables,
+                                 kernel, generic.small_source(pl, robot), full)
+    report = check(model, t_end=0.3, samples=5, probe_calls=200)
+    assert report.dissipated is not None and report.dissipated[-1] > 0
+    assert report.energy_error < 1e-6
 
 
 def test_warm_spherical_runs_integrate_with_differences_of_the_c_rhs(tmp_path, monkeypatch):

@@ -43,9 +43,12 @@ FORMULATIONS = ("kane", "lagrange")
 
 
 def computation(model: NumericModel) -> dict:
-    """What computed ``model``'s numbers, as every command's JSON records it:
-    ``{"formulation": "kane" | "lagrange" | None, "evaluator": "recursive" | "closed-form"}``."""
-    return {"formulation": model.formulation, "evaluator": model.evaluator}
+    """What computed ``model``'s numbers, as ``check``'s and ``accuracy``'s JSON
+    record it: ``{"formulation": "kane" | "lagrange" | None, "evaluator": "recursive" |
+    "closed-form", "code": ...}``, the code what ran (as ``simulate``'s JSON says it:
+    "generic kernel (...)", "native C (...)", "generated Python (...)")."""
+    return {"formulation": model.formulation, "evaluator": model.evaluator,
+            "code": getattr(model, "native_note", "generated Python")}
 
 
 def describe(formulation: str | None, evaluator: str) -> str:
@@ -189,7 +192,7 @@ def _generated_model(robot, pl, timings: dict, quick: bool, how: str | None, sto
                      start: float | None = None) -> NumericModel:
     """The robot's own code (generated Python, C by ``how``: ``native.load``) from its
     plan ``pl``; ``quick``: with a ``QuickBuild``; ``store``: into the cache."""
-    from . import native, recursive, trajectory
+    from . import generic, native, recursive, trajectory
 
     start = time.perf_counter() if start is None else start
     forward = recursive.forward(pl)
@@ -205,9 +208,11 @@ def _generated_model(robot, pl, timings: dict, quick: bool, how: str | None, sto
     start = time.perf_counter()
     model = native.recursive_model(info, code, c_text, None, timings, how=how, quick=quick)
     timings["compile"] = time.perf_counter() - start
-    if store:
-        cache.store(robot.digest, "recursive", {"code": code, "c": c_text,
-                                                "robot": info.to_dict()})
+    if store:             # with the generic kernel's tables: check's integrands
+        tables, _ = generic.pack(pl)
+        cache.store(robot.digest, "recursive", {
+            "code": code, "c": c_text, "robot": info.to_dict(),
+            "tables": None if tables is None else tables.to_dict()})
     return model
 
 
@@ -318,9 +323,10 @@ def _cached(digest: str, key: str, source: str, timings: dict) -> NumericModel |
         return None
     try:
         if "c" in entry:                            # the recursive path
-            from . import native
+            from . import generic, native
             model = native.recursive_model(RobotInfo.from_dict(entry["robot"], source),
                                            entry["code"], entry["c"], None)
+            model.integrands = generic.stored_energies(entry.get("tables"))
         else:
             model = constrained.model_type(entry["code"])(
                 RobotInfo.from_dict(entry["robot"], source), entry["code"],

@@ -59,6 +59,9 @@ class NumericModel:
     """Compiled functions of one robot's equations: ``evaluator`` "recursive" (the
     Newton-Euler recursions' code, with its RNEA) or "closed-form" (the closed forms of
     ``formulation``, "kane" or "lagrange"; None on the recursive path)."""
+    #: the generic kernel's T, V and P_d over the robot's tables (``generic.Energies``),
+    #: in place of the generated ``potential`` and ``powers``; None: the generated ones
+    integrands = None
 
     def __init__(self, info: RobotInfo, source: str, formulation: str | None = "kane"):
         namespace = run_generated(source)
@@ -243,9 +246,12 @@ class NumericModel:
 
     def powers(self, t, q, dq) -> np.ndarray:
         """(2, ...): the loads' power and the power dissipated by joint damping and
-        friction (>= 0), W; zeros for a robot without them."""
-        if self._powers is None:
+        friction (>= 0), W; zeros for a robot without them.  From ``integrands``
+        when the model has them."""
+        if not self.has_forces:
             return np.zeros((2, *np.broadcast_shapes(np.shape(t), np.shape(q)[1:])))
+        if self.integrands is not None:
+            return self.integrands.powers(t, q, dq)
         with np.errstate(all="ignore"):
             return np.moveaxis(self._powers(t, *q, *dq), -1, 0)
 
@@ -285,7 +291,10 @@ class NumericModel:
             return np.moveaxis(self._contacts(t, *q, *dq), (-2, -1), (0, 1))
 
     def energy(self, q, dq) -> tuple[np.ndarray, np.ndarray]:
-        """(T, V) over arrays of states: T = 1/2 dq^T M dq, V of gravity and springs."""
+        """(T, V) over arrays of states: T = 1/2 dq^T M dq, V of gravity and springs;
+        from ``integrands`` when the model has them."""
+        if self.integrands is not None:
+            return self.integrands.energy(q, dq)
         with np.errstate(all="ignore"):
             M, _, _ = self._mfb(0.0, *q, *dq)
             rates = np.moveaxis(np.asarray(dq, dtype=float), 0, -1)

@@ -22,10 +22,14 @@ native code is on in its default mode (``ANADYN_NATIVE`` unset), and
 ``ANADYN_GENERIC`` is not 0, on POSIX (fork), for robots the tables can hold.
 A ``GenericModel`` computes rhs, accelerations, driven accelerations, the
 inverse dynamics (``demand``) and M F B with the kernel, the control laws with
-a small generated Python function, and the Jacobian of the state derivative by
-differences (``GenericModel.jacobian``); anything else (energy, powers) comes from the
-generated Python of the full recursive path, built in this process when first
-asked for.  The kernel's numbers agree with the generated code to rounding
+a small generated Python function, and the Jacobian of the state derivative
+(``GenericModel.jacobian``: the kernel's exact, forward-mode derivative of the
+Newton-Euler recursion at fixed efforts, the control laws' derivatives by central
+differences), and ``check``'s integrands with the kernel's ``energies``: T from
+the body velocities and inertias, V from the bodies' positions and the joint
+springs, the power joint damping and friction dissipate from the joint rates;
+anything else (a free robot's momentum) comes from the generated Python of the
+full recursive path, built in this process when first asked for.  The kernel's numbers agree with the generated code to rounding
 (~1e-13 relative, a different order of operations), not to the bit.
 """
 from __future__ import annotations
@@ -38,10 +42,11 @@ from typing import NamedTuple
 import numpy as np
 
 from .differences import central_differences
+from .energies import Energies
 from .tables import Tables, pack
 from ..model import NumericModel, PrescribedMotion, run_generated
 
-__all__ = ["GenericModel", "Layout", "RECORD", "Tables", "enabled", "first_run",
+__all__ = ["Energies", "GenericModel", "Layout", "RECORD", "Tables", "enabled", "first_run",
            "kernel", "pack", "recorded"]
 
 
@@ -105,7 +110,8 @@ class GenericModel(NumericModel):
         self.speeds, self.quaternions = layout.speeds, layout.quaternions
         self.n, self.nq = len(self.speeds), len(self.coordinates)   # x = [q (nq), u (n)]
         self._rates = namespace.get("rates")          # dq = W(q) u, with a spherical joint
-        self.contact_names, self.rigid_contacts = (), None     # ``pack`` refuses contacts
+        # ``pack`` refuses contacts
+        self.contact_names, self.contact_laws, self.rigid_contacts = (), (), None
         self._kernel, self._make_full, self._full = module, full, None
         self._ints, self._doubles = tables.ints, tables.doubles
         self._laws = namespace["laws"] if self.effort_names and not namespace["NO_LAWS"] else None
@@ -120,6 +126,7 @@ class GenericModel(NumericModel):
             self._select[j, k] = scale                            # a drive's N k_t, else 1
         self._B = tables.A.T @ self._select                       # constant: theta affine
         self._B.setflags(write=False)
+        self.integrands = Energies(tables, module)        # check's T, V and P_d
         self._zero = np.zeros(nm)
         self.native_note = "generic kernel"      # first_run adds what becomes of the robot's code
 
@@ -150,9 +157,9 @@ class GenericModel(NumericModel):
 
     def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
         """[[R], [M^-1 K]]: the kernel's (R = d(W(q) u)/dx, [0, I] without a
-        spherical joint; K by central differences of the Newton-Euler recursion at
-        fixed efforts), plus M^-1 B d(tau)/dx with the laws' derivatives by
-        ``central_differences``."""
+        spherical joint; K = -dID/dx at fixed efforts, exact: the Newton-Euler
+        recursion differentiated in forward mode), plus M^-1 B d(tau)/dx with the
+        laws' derivatives by ``central_differences``."""
         n, nq, n2 = self.n, self.nq, self.nq + self.n
         x = np.ascontiguousarray(x, dtype=float)
         J = np.empty((n2, n2))
@@ -173,6 +180,21 @@ class GenericModel(NumericModel):
 
     def actuation(self, t, q, dq) -> np.ndarray:
         return self._B
+
+    @property
+    def has_forces(self) -> bool:
+        """Joint damping or friction, or (without a spherical joint) springs: the robots
+        whose generated code has ``powers`` (the tables hold no loads)."""
+        passive = self.integrands.passive
+        return bool(passive[:, :2].any() or (not self.quaternions and passive[:, 3].any()))
+
+    def momentum(self, t, q, u):
+        return self.full().momentum(t, q, u) if self.quaternions else None
+
+    def conserved(self):
+        """None for a robot that is not free (a free one has a spherical joint: its
+        generated code answers)."""
+        return self.full().conserved() if self.quaternions else None
 
     def _inverse_points(self, q, dq, ddq) -> tuple[np.ndarray, tuple]:
         """M ddq - F (no actuators) over broadcast arrays q (nq, ...), dq and ddq
@@ -246,11 +268,22 @@ def first_run(robot, pl, info, full, own_code, entry: str,
         return None
     layout, small = Layout.of(pl), small_source(pl, robot)
     _store(entry, {"robot": info.to_dict(), "layout": layout._asdict(), "small": small,
-                   "tables": {"ints": tables.ints.tolist(), "doubles": tables.doubles.tolist(),
-                              "A": tables.A.tolist(), "mode": tables.mode,
-                              "actuator_joint": list(tables.actuator_joint),
-                              "actuator_scale": [float(s) for s in tables.actuator_scale]}})
+                   "tables": tables.to_dict()})
     return _served(GenericModel(info, layout, tables, module, small, full), entry, own_code)
+
+
+def stored_energies(stored) -> Energies | None:
+    """``check``'s integrands (``Energies``) for a warm run, from the tables stored
+    with the robot's cache entry (``Tables.to_dict``); None when there are none,
+    they are damaged, or the kernel is off (``enabled``) or cannot be built."""
+    if stored is None or not enabled():
+        return None
+    try:
+        tables = Tables.from_dict(stored)
+    except (KeyError, TypeError, ValueError):
+        return None
+    module = kernel()
+    return None if module is None else Energies(tables, module)
 
 
 #: beside the derivation cache entry KEY.json: KEY.kernel, sealed, what the first
@@ -304,11 +337,7 @@ def recorded(entry: str, source: str, full, own_code) -> GenericModel | None:
     if module is None:
         return None
     try:
-        t = record["tables"]
-        tables = Tables(np.array(t["ints"], dtype=np.int32), np.array(t["doubles"], dtype=float),
-                        np.array(t["A"], dtype=float),
-                        tuple(int(j) for j in t["actuator_joint"]), int(t["mode"]),
-                        tuple(float(s) for s in t["actuator_scale"]))
+        tables = Tables.from_dict(record["tables"])
         layout = record["layout"]
         layout = Layout(*(tuple(layout[k]) for k in ("coordinates", "speeds", "efforts")),
                         tuple(tuple(int(i) for i in q) for q in layout["quaternions"]))

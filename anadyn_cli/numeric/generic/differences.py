@@ -1,6 +1,6 @@
-"""Central differences, with the step of the generic kernel's Jacobian (``kernel.c``):
-for the control laws' derivatives in a ``GenericModel`` and the integrators'
-Jacobian of a robot with a spherical joint (``native.models``)."""
+"""Central differences (step ~eps^(1/3)): for the control laws' derivatives in a
+``GenericModel`` (the kernel's own Jacobian is exact, forward mode) and the
+integrators' Jacobian of a robot with a spherical joint (``native.models``)."""
 from __future__ import annotations
 
 import numpy as np

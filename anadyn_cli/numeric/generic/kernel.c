@@ -503,29 +503,34 @@ static int tree_factor(double *M, const int *lam, int n) {
     return 0;
 }
 
-/* b = (L^T L)^-1 b in place (``tree_factor``) */
-static void tree_solve(const double *L, const int *lam, double *b, int n) {
+/* b -= l a for rows a, b of w doubles (nothing when l = 0: a factor's zeros) */
+static void row_update(double *b, double l, const double *a, int w) {
+    if (l == 0.0) return;
+    for (int c = 0; c < w; c++) b[c] -= l * a[c];
+}
+
+/* B = (L^T L)^-1 B in place (``tree_factor``), B: n rows of w right-hand sides,
+   every row operation on all of them at once */
+static void tree_solve(const double *L, const int *lam, double *B, int n, int w) {
     for (int k = n - 1; k >= 0; k--) {
-        b[k] /= L[k * n + k];
-        for (int i = lam[k]; i >= 0; i = lam[i]) b[i] -= L[k * n + i] * b[k];
+        for (int c = 0; c < w; c++) B[k * w + c] /= L[k * n + k];
+        for (int i = lam[k]; i >= 0; i = lam[i]) row_update(B + i * w, L[k * n + i], B + k * w, w);
     }
     for (int k = 0; k < n; k++) {
-        for (int i = lam[k]; i >= 0; i = lam[i]) b[k] -= L[k * n + i] * b[i];
-        b[k] /= L[k * n + k];
+        for (int i = lam[k]; i >= 0; i = lam[i]) row_update(B + k * w, L[k * n + i], B + i * w, w);
+        for (int c = 0; c < w; c++) B[k * w + c] /= L[k * n + k];
     }
 }
 
-/* b = (L L^T)^-1 b in place */
-static void cholesky_solve(const double *M, double *b, int n) {
+/* B = (L L^T)^-1 B in place, B: n rows of w right-hand sides */
+static void cholesky_solve(const double *M, double *B, int n, int w) {
     for (int i = 0; i < n; i++) {
-        double s = b[i];
-        for (int k = 0; k < i; k++) s -= M[i * n + k] * b[k];
-        b[i] = s / M[i * n + i];
+        for (int k = 0; k < i; k++) row_update(B + i * w, M[i * n + k], B + k * w, w);
+        for (int c = 0; c < w; c++) B[i * w + c] /= M[i * n + i];
     }
     for (int i = n - 1; i >= 0; i--) {
-        double s = b[i];
-        for (int k = i + 1; k < n; k++) s -= M[k * n + i] * b[k];
-        b[i] = s / M[i * n + i];
+        for (int k = i + 1; k < n; k++) row_update(B + i * w, M[k * n + i], B + k * w, w);
+        for (int c = 0; c < w; c++) B[i * w + c] /= M[i * n + i];
     }
 }
 
@@ -682,43 +687,11 @@ static int accelerations(const Model *m, const double *x, const double *e, doubl
             ddq[k] = s;
         }
         code = cholesky(M, n);
-        if (!code) cholesky_solve(M, ddq, n);
+        if (!code) cholesky_solve(M, ddq, n, 1);
     }
     free(F); free(w);
     if (code) return code;
     return finite_all(ddq, n) ? 0 : 2;
-}
-
-/* The joint forces tau (NM) after the bodies marked in mask moved: their new
-   frames Fk and body forces fk (fk of the others: as in the base state), the base
-   state's frames F, accumulated forces acc and joint forces tau0.  Leaves to root,
-   the marked bodies' forces are accumulated anew; the change they bring to an
-   unmarked ancestor (d, where has) is carried up to the root. */
-static void moved_forces(const Model *m, const int *mask, const Frame *F, const Frame *Fk,
-                         double *fk, const double *acc, const double *tau0, double *d,
-                         int *has, double *tau) {
-    memcpy(tau, tau0, sizeof(double) * m->nm);
-    memset(has, 0, sizeof(int) * m->nb);
-    for (int i = m->nb - 1; i >= 0; i--) {
-        int p = PARENT(m, i), j = JOINT(m, i), dof;
-        double S[18], t[6], t0[6];
-        if (!mask[i] && !has[i]) continue;
-        dof = subspace(m, i, S);
-        if (mask[i]) {
-            for (int c = 0; c < dof; c++) tau[j + c] = dot6(S + 6 * c, fk + 6 * i);
-            if (p < 0) continue;
-            force_out(Fk + i, fk + 6 * i, t);
-            if (mask[p]) { for (int k = 0; k < 6; k++) fk[6 * p + k] += t[k]; continue; }
-            force_out(F + i, acc + 6 * i, t0);
-            for (int k = 0; k < 6; k++) t[k] -= t0[k];
-        } else {
-            for (int c = 0; c < dof; c++) tau[j + c] = tau0[j + c] + dot6(S + 6 * c, d + 6 * i);
-            if (p < 0) continue;
-            force_out(F + i, d + 6 * i, t);
-        }
-        if (!has[p]) { memset(d + 6 * p, 0, sizeof(double) * 6); has[p] = 1; }
-        for (int k = 0; k < 6; k++) d[6 * p + k] += t[k];
-    }
 }
 
 /* whether the joint of body i moves with the state entry k of x = [q, u] */
@@ -733,27 +706,136 @@ static int moves_with(const Model *m, int i, int k) {
     return m->A[j * m->n + (k < m->nq ? k : k - m->nq)] != 0.0;
 }
 
+/* o = I v for the spatial inertia of body b about its origin (``inertia``):
+   (I_O w + h x v, m v - h x w), v = (w, v) */
+static void inertia_times(const double *b, const double *v, double *o) {
+    const double m = b[15], *h = b + 16;
+    double t[3];
+    mv3(b + 19, v, o);
+    cross3(h, v + 3, t);
+    for (int k = 0; k < 3; k++) o[k] += t[k];
+    cross3(h, v, t);
+    for (int k = 0; k < 3; k++) o[3 + k] = m * v[3 + k] - t[k];
+}
+
+/* the derivative dF (dE, dr) of body i's frame F (``frames``) with respect to the
+   coordinate q_k that moves its joint (x = [q, u], theta the joints' displacements):
+   revolute dE = dRot(a, theta)^T/dtheta C^T A_jk, prismatic dr = C a A_jk;
+   spherical, q_k its quaternion p's component c: R(p)^T = N(p)/|p|^2, N(p) = Q(p, p)
+   for a symmetric bilinear Q, so dE = 2 (Q(p, e_c) C^T - p_c E)/|p|^2 */
+static void frame_derivative(const Model *m, int i, const double *x, const double *theta,
+                             int k, const Frame *F, Frame *dF) {
+    const double *b = m->body + BODY * i, *CT = b, *a = b + 12;
+    double dRT[9];
+    memset(dF->r, 0, sizeof(double) * 3);
+    if (KIND(m, i) == SPHERICAL) {
+        const double *p = x + COORDINATE(m, i);
+        double w = p[0], qx = p[1], qy = p[2], qz = p[3], e[4] = {0, 0, 0, 0};
+        double s = 2.0 / (w * w + qx * qx + qy * qy + qz * qz), pc = p[k - COORDINATE(m, i)];
+        e[k - COORDINATE(m, i)] = 1.0;                   /* dRT = Q(p, e_c) */
+        dRT[0] = w * e[0] + qx * e[1] - qy * e[2] - qz * e[3];
+        dRT[4] = w * e[0] - qx * e[1] + qy * e[2] - qz * e[3];
+        dRT[8] = w * e[0] - qx * e[1] - qy * e[2] + qz * e[3];
+        dRT[3] = qx * e[2] + qy * e[1] - w * e[3] - qz * e[0];
+        dRT[1] = qx * e[2] + qy * e[1] + w * e[3] + qz * e[0];
+        dRT[6] = qx * e[3] + qz * e[1] + w * e[2] + qy * e[0];
+        dRT[2] = qx * e[3] + qz * e[1] - w * e[2] - qy * e[0];
+        dRT[7] = qy * e[3] + qz * e[2] - w * e[1] - qx * e[0];
+        dRT[5] = qy * e[3] + qz * e[2] + w * e[1] + qx * e[0];
+        mm3(dRT, CT, dF->E);
+        for (int r = 0; r < 9; r++) dF->E[r] = s * (dF->E[r] - pc * F->E[r]);
+        return;
+    }
+    double rate = m->A[JOINT(m, i) * m->n + k];
+    if (KIND(m, i) == 2) {
+        memset(dF->E, 0, sizeof(double) * 9);
+        for (int r = 0; r < 3; r++)                      /* C a = (C^T)^T a */
+            dF->r[r] = rate * (CT[r] * a[0] + CT[3 + r] * a[1] + CT[6 + r] * a[2]);
+        return;
+    }
+    double cs = cos(theta[JOINT(m, i)]) * rate, sn = sin(theta[JOINT(m, i)]) * rate;
+    for (int r = 0; r < 3; r++)             /* d/dtheta (c 1 + (1 - c) a a^T - s [a]x) */
+        for (int c = 0; c < 3; c++) dRT[3 * r + c] = (r == c ? -sn : 0.0) + sn * a[r] * a[c];
+    dRT[1] += cs * a[2]; dRT[2] -= cs * a[1];
+    dRT[3] -= cs * a[2]; dRT[5] += cs * a[0];
+    dRT[6] += cs * a[1]; dRT[7] -= cs * a[0];
+    mm3(dRT, CT, dF->E);
+}
+
+/* the derivative of motion_in(F, p), p = (w, v), with p's derivative dp (NULL: 0)
+   and the frame's dF (NULL: fixed): motion_in(F, dp) plus (dE w, dE (v - r x w)
+   - E (dr x w)) */
+static void motion_derivative(const Frame *F, const Frame *dF, const double *p,
+                              const double *dp, double *o) {
+    double rw[3], d[3], t[3], u[3];
+    if (dp) motion_in(F, dp, o);
+    else memset(o, 0, sizeof(double) * 6);
+    if (!dF) return;
+    cross3(F->r, p, rw);
+    for (int k = 0; k < 3; k++) d[k] = p[3 + k] - rw[k];
+    mv3(dF->E, p, t);
+    for (int k = 0; k < 3; k++) o[k] += t[k];
+    cross3(dF->r, p, rw);
+    mv3(F->E, rw, u);
+    mv3(dF->E, d, t);
+    for (int k = 0; k < 3; k++) o[3 + k] += t[k] - u[k];
+}
+
+/* the derivative of force_out(F, c) with c's derivative dc and the frame's dF
+   (NULL: fixed): force_out(F, dc) plus (dE^T n + dr x E^T f + r x dE^T f, dE^T f) */
+static void force_derivative(const Frame *F, const Frame *dF, const double *c,
+                             const double *dc, double *o) {
+    double t[3], u[3];
+    force_out(F, dc, o);
+    if (!dF) return;
+    mtv3(dF->E, c + 3, t);
+    cross3(F->r, t, u);
+    for (int k = 0; k < 3; k++) { o[3 + k] += t[k]; o[k] += u[k]; }
+    mtv3(F->E, c + 3, t);
+    cross3(dF->r, t, u);
+    mtv3(dF->E, c, t);
+    for (int k = 0; k < 3; k++) o[k] += u[k] + t[k];
+}
+
+/* the derivative of passive_of(m, j, theta, dtheta) for the derivatives t_theta
+   of theta and t_dtheta of dtheta */
+static double passive_derivative(const Model *m, int j, double dtheta, double t_theta,
+                                 double t_dtheta) {
+    const double *p = m->passive + PASSIVE * j;
+    double v = 0.0;
+    if (p[0] != 0.0) v -= p[0] * t_dtheta;
+    if (p[1] != 0.0) {
+        double th = tanh(dtheta / p[2]);
+        v -= p[1] * (1.0 - th * th) / p[2] * t_dtheta;
+    }
+    if (p[3] != 0.0) v -= p[3] * t_theta;
+    return v;
+}
+
 /* J = [[R, 0 ...], [M^-1 K]] ((NQ + N) x (NQ + N)) at fixed joint efforts e: R =
-   d(W(q) u)/dx (rate_rows), K = -dID/dx at fixed du, column by column by central
-   differences of the recursive Newton-Euler algorithm (step 6e-6 max(1, |x_k|))
-   redone only on the bodies that a state entry moves (their subtrees, and the
-   change of force up to the root), then solved with the factor of M (composite
-   rigid bodies; with A = 1 the tree's LTL factor, else a dense Cholesky factor) */
+   d(W(q) u)/dx (rate_rows), K = -dID/dx at fixed du, exact: column by column, the
+   recursive Newton-Euler algorithm differentiated in forward mode (tangent-linear)
+   along the state entry x_k, on the bodies x_k moves only: the frames of the bodies
+   whose joint moves with x_k (frame_derivative), the velocities, accelerations and
+   body forces of their subtrees (forward), the forces' change carried up to the
+   root (backward), the joints' springs, dampers and friction (passive_derivative);
+   then solved with the factor of M (composite rigid bodies; with A = 1 the tree's
+   LTL factor, else a dense Cholesky factor) */
 static int jacobian(const Model *m, const double *x, const double *e, double *J) {
     int n = m->n, nq = m->nq, nm = m->nm, nb = m->nb, ns = nq + n, code;
     Frame *F = malloc(sizeof(Frame) * 2 * nb);
     int *mask = malloc(sizeof(int) * (3 * nb + nm));
-    double *w = malloc(sizeof(double) * (4 * n + ns + 9 * nm + 54 * nb + nm * nm + nm * n + n * n));
+    double *w = malloc(sizeof(double) * (n + 6 * nm + 48 * nb + nm * nm + nm * n + n * n));
     if (!F || !mask || !w) { free(F); free(mask); free(w); return 1; }
-    Frame *Fk = F + nb;
+    Frame *dF = F + nb;
     int *has = mask + nb, *own = has + nb, *lam = own + nb;
-    double *ddq = w, *moved = ddq + n, *back = moved + n, *col = back + n,
-           *xp = col + n,
-           *th = xp + ns, *dth = th + nm, *ddth = dth + nm, *thk = ddth + nm, *dthk = thk + nm,
-           *tau = dthk + nm, *tau0 = tau + nm, *pas = tau0 + nm, *pas0 = pas + nm, *v = pas0 + nm, *a = v + 6 * nb,
-           *f = a + 6 * nb, *vk = f + 6 * nb, *ak = vk + 6 * nb, *fk = ak + 6 * nb,
-           *acc = fk + 6 * nb, *d = acc + 6 * nb, *H = d + 6 * nb,
+    double *ddq = w, *th = ddq + n, *dth = th + nm, *ddth = dth + nm,
+           *tth = ddth + nm, *tdth = tth + nm, *ttau = tdth + nm, *v = ttau + nm,
+           *a = v + 6 * nb, *f = a + 6 * nb, *acc = f + 6 * nb, *Iv = acc + 6 * nb,
+           *tv = Iv + 6 * nb, *ta = tv + 6 * nb, *tacc = ta + 6 * nb, *H = tacc + 6 * nb,
            *HA = H + nm * nm, *M = HA + nm * n;
+    const double zero[6] = {0, 0, 0, 0, 0, 0},
+                 a0[6] = {0, 0, 0, -m->g[0], -m->g[1], -m->g[2]};
     code = accelerations(m, x, e, ddq);
     if (!code) {
         positions(m, x, th);
@@ -762,8 +844,8 @@ static int jacobian(const Model *m, const double *x, const double *e, double *J)
         frames(m, x, th, F, NULL);
         forward_pass(m, F, dth, ddth, v, a, f, NULL);
         memcpy(acc, f, sizeof(double) * 6 * nb);
-        backward_pass(m, F, acc, tau0);
-        passive(m, th, dth, pas0);
+        backward_pass(m, F, acc, ttau);
+        for (int i = 0; i < nb; i++) inertia_times(m->body + BODY * i, v + 6 * i, Iv + 6 * i);
         crba_joint(m, F, H);
         mass(m, H, M, HA);
         for (int i = 0; i < nb; i++) {      /* each speed's nearest moving ancestor */
@@ -777,57 +859,134 @@ static int jacobian(const Model *m, const double *x, const double *e, double *J)
     }
     memset(J, 0, sizeof(double) * ns * ns);
     rate_rows(m, x, J);
-    memcpy(xp, x, sizeof(double) * ns);
-    memcpy(Fk, F, sizeof(Frame) * nb);
-    memcpy(vk, v, sizeof(double) * 18 * nb);          /* v, a, f: contiguous */
     for (int k = 0; k < ns && !code; k++) {
+        int speed = k >= nq, kc = speed ? k - nq : k;
         for (int i = 0; i < nb; i++) {
             int p = PARENT(m, i);
             own[i] = moves_with(m, i, k);
             mask[i] = own[i] || (p >= 0 && mask[p]);
+            has[i] = 0;
         }
-        double step = 6e-6 * fmax(1.0, fabs(x[k])), h = 0.0;
-        for (int side = 0; side < 2; side++) {
-            double *out = side ? back : moved;
-            xp[k] = x[k] + (side ? -step : step);
-            h += side ? x[k] - xp[k] : xp[k] - x[k];
-            positions(m, xp, thk);
-            joint_map(m, xp + nq, dthk, 0);
-            if (k < nq) frames(m, xp, thk, Fk, own);        /* the others' do not move */
-            forward_pass(m, Fk, dthk, ddth, vk, ak, fk, mask);
-            moved_forces(m, mask, F, Fk, fk, acc, tau0, d, has, tau);
-            memcpy(pas, pas0, sizeof(double) * nm);
-            for (int i = 0; i < nb; i++)
-                if (own[i] && KIND(m, i) != SPHERICAL) {
-                    int j = JOINT(m, i);
-                    pas[j] = passive_of(m, j, thk[j], dthk[j]);
+        memset(ttau, 0, sizeof(double) * nm);
+        for (int i = 0; i < nb; i++) {         /* forward: the moved subtrees */
+            if (!mask[i]) continue;
+            int p = PARENT(m, i), j = JOINT(m, i), dof, turned = own[i] && !speed;
+            double S[18], sd[6] = {0, 0, 0, 0, 0, 0}, tsd[6] = {0, 0, 0, 0, 0, 0}, vb[6],
+                   tvb[6], t[6], Iw[6];
+            dof = subspace(m, i, S);
+            if (own[i]) {
+                int sphere = KIND(m, i) == SPHERICAL;
+                for (int c = 0; c < dof; c++) {
+                    double r = sphere && !speed ? 0.0 : m->A[(j + c) * n + kc];
+                    tdth[j + c] = speed ? r : 0.0;
+                    tth[j + c] = speed || sphere ? 0.0 : r;
+                    for (int l = 0; l < 6; l++) tsd[l] += S[6 * c + l] * tdth[j + c];
                 }
-            for (int r = 0; r < n; r++) {
-                double s = 0.0;
-                if (m->mode == 0) s = tau[r] - pas[r];
-                else for (int j = 0; j < nm; j++) s += m->A[j * n + r] * (tau[j] - pas[j]);
-                out[r] = s;
+                if (turned) frame_derivative(m, i, x, th, k, F + i, dF + i);
             }
+            for (int c = 0; c < dof; c++)
+                for (int l = 0; l < 6; l++) sd[l] += S[6 * c + l] * dth[j + c];
+            const Frame *dFi = turned ? dF + i : NULL;
+            int moving = p >= 0 && mask[p];
+            motion_derivative(F + i, dFi, p < 0 ? zero : v + 6 * p, moving ? tv + 6 * p : NULL,
+                              tvb);
+            motion_derivative(F + i, dFi, p < 0 ? a0 : a + 6 * p, moving ? ta + 6 * p : NULL,
+                              ta + 6 * i);
+            for (int l = 0; l < 6; l++) vb[l] = v[6 * i + l] - sd[l];
+            cross_motion(tvb, sd, t);                  /* d(v_before x S dtheta) */
+            for (int l = 0; l < 6; l++) ta[6 * i + l] += t[l];
+            cross_motion(vb, tsd, t);
+            for (int l = 0; l < 6; l++) {
+                ta[6 * i + l] += t[l];
+                tv[6 * i + l] = tvb[l] + tsd[l];
+            }
+            inertia_times(m->body + BODY * i, ta + 6 * i, tacc + 6 * i);   /* d(I a + v x* I v) */
+            cross_force(tv + 6 * i, Iv + 6 * i, t);
+            for (int l = 0; l < 6; l++) tacc[6 * i + l] += t[l];
+            inertia_times(m->body + BODY * i, tv + 6 * i, Iw);
+            cross_force(v + 6 * i, Iw, t);
+            for (int l = 0; l < 6; l++) tacc[6 * i + l] += t[l];
         }
-        for (int r = 0; r < n; r++) J[(nq + r) * ns + k] = -(moved[r] - back[r]) / h;
-        xp[k] = x[k];
-        for (int i = 0; i < nb; i++)                       /* back to the base state */
-            if (mask[i]) {
-                Fk[i] = F[i];
-                memcpy(vk + 6 * i, v + 6 * i, sizeof(double) * 6);
-                memcpy(ak + 6 * i, a + 6 * i, sizeof(double) * 6);
-                memcpy(fk + 6 * i, f + 6 * i, sizeof(double) * 6);
+        for (int i = nb - 1; i >= 0; i--) {    /* backward: up to the root */
+            if (!mask[i] && !has[i]) continue;
+            int p = PARENT(m, i), j = JOINT(m, i), dof;
+            double S[18], t[6];
+            dof = subspace(m, i, S);
+            for (int c = 0; c < dof; c++) {
+                ttau[j + c] = dot6(S + 6 * c, tacc + 6 * i);
+                if (own[i])
+                    ttau[j + c] -= passive_derivative(m, j + c, dth[j + c], tth[j + c],
+                                                      tdth[j + c]);
             }
+            if (p < 0) continue;
+            force_derivative(F + i, own[i] && !speed ? dF + i : NULL, acc + 6 * i, tacc + 6 * i, t);
+            if (!mask[p] && !has[p]) { memset(tacc + 6 * p, 0, sizeof(double) * 6); has[p] = 1; }
+            for (int l = 0; l < 6; l++) tacc[6 * p + l] += t[l];
+        }
+        for (int j = 0; j < nm; j++) {        /* column k of K = -A^T dtau (J zero) */
+            if (ttau[j] == 0.0) continue;
+            if (m->mode == 0) J[(nq + j) * ns + k] = -ttau[j];
+            else for (int r = 0; r < n; r++) J[(nq + r) * ns + k] -= m->A[j * n + r] * ttau[j];
+        }
     }
-    for (int k = 0; k < ns && !code; k++) {
-        for (int r = 0; r < n; r++) col[r] = J[(nq + r) * ns + k];
-        if (m->mode == 0) tree_solve(M, lam, col, n);
-        else cholesky_solve(M, col, n);
-        for (int r = 0; r < n; r++) J[(nq + r) * ns + k] = col[r];
-    }
+    if (!code && m->mode == 0) tree_solve(M, lam, J + nq * ns, n, ns);    /* K's rows */
+    else if (!code) cholesky_solve(M, J + nq * ns, n, ns);
     free(F); free(mask); free(w);
     if (code) return code;
     return finite_all(J, ns * ns) ? 0 : 2;
+}
+
+/* T = 1/2 sum_i v_i . I_i v_i (body velocities, spatial inertias about the body
+   origins), V = -sum_i g . (m_i p_i + R_i h_i) + sum_j 1/2 stiffness_j (theta_j -
+   rest_j)^2 (p_i, R_i: the body's origin and axes in the world) and the power
+   the joints dissipate, P_d = sum_j dtheta_j (damping_j dtheta_j + friction_j
+   tanh(dtheta_j / v_j)), at x = [q, u]: out = [T, V, P_d] */
+static int energies(const Model *m, const double *x, double *out) {
+    int nb = m->nb, nm = m->nm;
+    Frame *F = malloc(sizeof(Frame) * nb);
+    double *w = malloc(sizeof(double) * (2 * nm + 18 * nb));
+    if (!F || !w) { free(F); free(w); return 1; }
+    double *th = w, *dth = th + nm, *v = dth + nm, *R = v + 6 * nb, *p = R + 9 * nb;
+    double T = 0.0, V = 0.0, P = 0.0;
+    positions(m, x, th);
+    joint_map(m, x + m->nq, dth, 0);
+    frames(m, x, th, F, NULL);
+    forward_pass(m, F, dth, NULL, v, NULL, NULL, NULL);
+    for (int i = 0; i < nb; i++) {
+        const double *b = m->body + BODY * i, *E = F[i].E, *r = F[i].r;
+        double I6[36], Iv[6], *Ri = R + 9 * i, *pi = p + 3 * i, c[3];
+        int par = PARENT(m, i);
+        inertia(b, I6);
+        mv6(I6, v + 6 * i, Iv);
+        T += 0.5 * dot6(v + 6 * i, Iv);
+        if (par < 0) {                        /* R_i = E^T, p_i = r */
+            for (int a = 0; a < 3; a++)
+                for (int k = 0; k < 3; k++) Ri[3 * a + k] = E[3 * k + a];
+            memcpy(pi, r, sizeof(double) * 3);
+        } else {                              /* R_i = R_p E^T, p_i = p_p + R_p r */
+            const double *Rp = R + 9 * par, *pp = p + 3 * par;
+            for (int a = 0; a < 3; a++) {
+                pi[a] = pp[a];
+                for (int k = 0; k < 3; k++) {
+                    pi[a] += Rp[3 * a + k] * r[k];
+                    Ri[3 * a + k] = Rp[3 * a] * E[3 * k] + Rp[3 * a + 1] * E[3 * k + 1]
+                                    + Rp[3 * a + 2] * E[3 * k + 2];
+                }
+            }
+        }
+        mv3(Ri, b + 16, c);                   /* R_i h_i */
+        for (int a = 0; a < 3; a++) V -= m->g[a] * (b[15] * pi[a] + c[a]);
+    }
+    for (int j = 0; j < nm; j++) {
+        const double *s = m->passive + PASSIVE * j;
+        double d = dth[j];
+        if (s[0] != 0.0) P += s[0] * d * d;
+        if (s[1] != 0.0) P += s[1] * d * tanh(d / s[2]);
+        if (s[3] != 0.0) V += 0.5 * s[3] * (th[j] - s[4]) * (th[j] - s[4]);
+    }
+    out[0] = T; out[1] = V; out[2] = P;
+    free(F); free(w);
+    return finite_all(out, 3) ? 0 : 2;
 }
 
 #define PY_SSIZE_T_CLEAN
@@ -920,34 +1079,60 @@ static PyObject *py_jac(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     (void)self; return state_call(args, nargs, jacobian, 1);
 }
 
-/* inverse(ints, doubles, count, x, w, out): out[k] = M w[k] - F at x[k] = [q, u]
-   (no actuators) */
-static PyObject *py_inverse(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
-    (void)self;
-    if (nargs != 6) { PyErr_SetString(PyExc_TypeError, "expected (ints, doubles, count, x, w, out)"); return NULL; }
+typedef int (*point_kernel)(const Model *, const double *, const double *, double *);
+
+/* f at each of count states x[k] (NQ + N), with w[k] (N) when with_w, writing out[k]
+   (width values; 0: N): f(ints, doubles, count, x, [w,] out) -> code */
+static PyObject *batch_call(PyObject *const *args, Py_ssize_t nargs, point_kernel f, int with_w,
+                            int width) {
+    if (nargs != 5 + with_w) {
+        PyErr_SetString(PyExc_TypeError, with_w ? "expected (ints, doubles, count, x, w, out)"
+                                                : "expected (ints, doubles, count, x, out)");
+        return NULL;
+    }
     Py_buffer bi, bd, bx, bw, bo;
     Model m;
     Py_ssize_t count = PyLong_AsSsize_t(args[2]);
     if (count < 0) { if (!PyErr_Occurred()) PyErr_SetString(PyExc_ValueError, "count < 0"); return NULL; }
     if (tables(args, &bi, &bd, &m) < 0) return NULL;
     int code = -1;
-    Py_ssize_t ns = m.nq + m.n;
+    Py_ssize_t ns = m.nq + m.n, wo = width ? width : m.n, ww = with_w ? m.n : 0;
     if (buffer(args[3], &bx, "d", 8, ns * count, 0) == 0) {
-        if (buffer(args[4], &bw, "d", 8, m.n * count, 0) == 0) {
-            if (buffer(args[5], &bo, "d", 8, m.n * count, 1) == 0) {
-                const double *x = (const double *)bx.buf, *w = (const double *)bw.buf;
+        if (!with_w || buffer(args[4], &bw, "d", 8, m.n * count, 0) == 0) {
+            if (buffer(args[4 + with_w], &bo, "d", 8, wo * count, 1) == 0) {
+                const double *x = (const double *)bx.buf, *w = with_w ? (const double *)bw.buf : NULL;
                 double *o = (double *)bo.buf;
                 code = 0;
                 for (Py_ssize_t k = 0; k < count && !code; k++)
-                    code = inverse(&m, x + ns * k, x + ns * k + m.nq, w + m.n * k, o + m.n * k);
+                    code = f(&m, x + ns * k, w ? w + ww * k : NULL, o + wo * k);
                 PyBuffer_Release(&bo);
             }
-            PyBuffer_Release(&bw);
+            if (with_w) PyBuffer_Release(&bw);
         }
         PyBuffer_Release(&bx);
     }
     PyBuffer_Release(&bi); PyBuffer_Release(&bd);
     return code < 0 ? NULL : PyLong_FromLong(code);
+}
+
+static int inverse_at(const Model *m, const double *x, const double *w, double *out) {
+    return inverse(m, x, x + m->nq, w, out);
+}
+
+static int energies_at(const Model *m, const double *x, const double *w, double *out) {
+    (void)w; return energies(m, x, out);
+}
+
+/* inverse(ints, doubles, count, x, w, out): out[k] = M w[k] - F at x[k] = [q, u]
+   (no actuators) */
+static PyObject *py_inverse(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self; return batch_call(args, nargs, inverse_at, 1, 0);
+}
+
+/* energies(ints, doubles, count, x, out): out[k] = [T, V, P_d] at x[k] = [q, u]
+   (``energies``) */
+static PyObject *py_energies(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self; return batch_call(args, nargs, energies_at, 0, 3);
 }
 
 /* mass(ints, doubles, q, out): out = M(q) (N x N, q: NQ) by composite rigid bodies */
@@ -988,6 +1173,8 @@ static PyMethodDef methods[] = {
      "inverse(ints, doubles, count, x, w, out) -> code"},
     {"mass", (PyCFunction)(void (*)(void))py_mass, METH_FASTCALL,
      "mass(ints, doubles, q, out) -> code"},
+    {"energies", (PyCFunction)(void (*)(void))py_energies, METH_FASTCALL,
+     "energies(ints, doubles, count, x, out) -> code"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, MODULE_NAME, NULL, -1, methods};

@@ -16,6 +16,8 @@ import numpy as np
 
 #: kernel.c's joint kinds
 KINDS = {"fixed": 0, "revolute": 1, "prismatic": 2, "spherical": 3}
+#: kernel.c's doubles per body and per moving joint
+BODY, PASSIVE = 28, 5
 #: MODE: theta = q + c; A square and invertible; otherwise (CRBA + Cholesky)
 IDENTITY, INVERTIBLE, GENERAL = 0, 1, 2
 
@@ -28,6 +30,26 @@ class Tables:
     actuator_joint: tuple[int, ...]
     mode: int
     actuator_scale: tuple[float, ...] = ()   # generalized force per unit effort (a drive's N k_t)
+
+    def to_dict(self) -> dict:
+        """Plain lists and numbers (a cache record's form)."""
+        return {"ints": self.ints.tolist(), "doubles": self.doubles.tolist(),
+                "A": self.A.tolist(), "mode": self.mode,
+                "actuator_joint": list(self.actuator_joint),
+                "actuator_scale": [float(s) for s in self.actuator_scale]}
+
+    @classmethod
+    def from_dict(cls, t: dict) -> "Tables":
+        """The tables of ``to_dict``'s form (KeyError, TypeError, ValueError if not)."""
+        return cls(np.array(t["ints"], dtype=np.int32), np.array(t["doubles"], dtype=float),
+                   np.array(t["A"], dtype=float), tuple(int(j) for j in t["actuator_joint"]),
+                   int(t["mode"]), tuple(float(s) for s in t["actuator_scale"]))
+
+    def passive(self) -> np.ndarray:
+        """(moving joints, 5): damping, friction, friction velocity, stiffness, rest
+        (kernel.c's PASSIVE doubles, after the gravity and the bodies)."""
+        start = 3 + BODY * int(self.ints[0])
+        return self.doubles[start:start + PASSIVE * self.A.shape[0]].reshape(-1, PASSIVE)
 
 
 def affine_map(pl) -> tuple[np.ndarray, np.ndarray] | None:

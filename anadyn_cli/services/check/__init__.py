@@ -111,7 +111,8 @@ def check(model: NumericModel, rtol: float | None = None,
         work, load_work, dissipated = np.zeros(len(grid)), None, None
     else:
         extra = 3 if forced(model) else 1
-        solution = integrators.integrate(with_work(model, bool(robot.actuators)),
+        actuated = bool(robot.actuators) and robot.has_controller    # else the efforts are 0
+        solution = integrators.integrate(with_work(model, actuated),
                                          np.append(x0, np.zeros(extra)), grid, "odeint",
                                          settings.rtol, settings.atol)
         if not solution.success:

@@ -35,25 +35,29 @@ class Probe:
         return self.ratio > STABILITY_LIMITED
 
 
-def actuator_power(model: NumericModel, t: float, x: np.ndarray) -> float:
-    """P = tau . (B^T dq) = dq . (B tau): the actuators' power at one state.  B is the
-    recursive path's ``actuation`` (B alone, the same numbers as ``mfb``'s, kept
-    once when constant: no M per call), else the closed forms' ``mfb``."""
+def actuator_power(model: NumericModel, t: float, x: np.ndarray) -> np.ndarray:
+    """P = tau . (B^T dq) = dq . (B tau): the actuators' power at the states x
+    (nq + n, ...) -> (...).  B is the recursive path's ``actuation`` (B alone, the
+    same numbers as ``mfb``'s, kept once when constant: no M per call), else the
+    closed forms' ``mfb``."""
     n, nq = model.n, model.nq
     q, dq = x[:nq], x[nq:]
-    tau = np.asarray(model.efforts(t, q, dq), dtype=float).reshape(-1)
+    tau = np.moveaxis(np.asarray(model.efforts(t, q, dq), dtype=float), 0, -1)   # (..., m)
     B = (model.actuation(t, q, dq) if model.evaluator == "recursive"
          else model.mfb(t, q, dq)[2])
-    return float(dq @ (np.asarray(B).reshape(n, -1) @ tau))
+    B = np.asarray(B, dtype=float).reshape(*np.shape(B)[:-2], n, -1)              # (..., n, m)
+    return np.einsum("...ij,...j,i...->...", B, tau, dq)
 
 
 def external_powers(model: NumericModel, t: float, x: np.ndarray) -> np.ndarray:
-    """[P_loads, P_dissipated] at one state: the loads' power and the power that joint
-    damping and friction dissipate (>= 0)."""
+    """[P_loads, P_dissipated] at the states x (nq + n, ...) -> (2, ...): the loads'
+    power and the power that joint damping and friction dissipate (>= 0)."""
     nq = model.nq
-    out = np.asarray(model.powers(t, x[:nq], x[nq:]), dtype=float).reshape(2)
+    out = np.array(model.powers(t, x[:nq], x[nq:]), dtype=float)
+    if out.shape != (2, *np.shape(x)[1:]):           # a constant power
+        out = np.array(np.broadcast_to(out, (2, *np.shape(x)[1:])))
     if model.contact_names:                   # what the contacts dissipate
-        out[1] += float(np.sum(model.contacts(t, x[:nq], x[nq:])[:, 5]))
+        out[1] += np.sum(model.contacts(t, x[:nq], x[nq:])[:, 5], axis=0)
     return out
 
 
@@ -64,16 +68,24 @@ def forced(model: NumericModel) -> bool:
 
 def with_work(model: NumericModel, actuated: bool) -> Problem:
     """The direct dynamics with the actuators' work W as one more state, W' = P; with
-    loads or joint forces also their work W_loads and the dissipated energy E_d."""
+    loads or joint forces also their work W_loads and the dissipated energy E_d.
+    ``actuated``: whether the efforts can be non-zero (actuators under control laws),
+    else W stays 0 and P is not evaluated.
+
+    The Jacobian is the model's, bordered by the rows dP/dx of forward differences
+    (step 1.5e-8 max(1, |x_j|)) taken in one vectorized evaluation of the powers at
+    the n + 1 states; the work states feed back into nothing, so their columns are
+    zero (the rows steer only the Newton iteration of states that follow x)."""
     n2 = model.nq + model.n
     extra = 3 if forced(model) else 1
 
-    def powers(t, x):
-        out = np.zeros(extra)
+    def powers(t, X):
+        """(extra, ...) at the states X (n2, ...)."""
+        out = np.zeros((extra, *np.shape(X)[1:]))
         if actuated:
-            out[0] = actuator_power(model, t, x)
+            out[0] = actuator_power(model, t, X)
         if extra > 1:
-            out[1:] = external_powers(model, t, x)
+            out[1:] = external_powers(model, t, X)
         return out
 
     def rhs(t, y):
@@ -87,12 +99,11 @@ def with_work(model: NumericModel, actuated: bool) -> Problem:
         x = y[:n2]
         J[:n2, :n2] = model.jacobian(t, x)
         if actuated or extra > 1:
-            p0 = powers(t, x)
-            for j in range(n2):
-                h = 1.5e-8 * max(1.0, abs(x[j]))
-                shifted = x.copy()
-                shifted[j] += h
-                J[n2:, j] = (powers(t, shifted) - p0) / h
+            h = 1.5e-8 * np.maximum(1.0, np.abs(x))
+            X = np.repeat(x[:, None], n2 + 1, axis=1)
+            X[np.arange(n2), np.arange(n2)] += h
+            P = powers(t, X)
+            J[n2:, :n2] = (P[:, :n2] - P[:, n2:]) / ((x + h) - x)
         return J
 
     names = ("W", "W_loads", "E_d")[:extra]
