@@ -25,12 +25,12 @@ inverse dynamics (``demand``) and M F B with the kernel, the control laws with
 a small generated Python function, and the Jacobian of the state derivative
 (``GenericModel.jacobian``: the kernel's exact, forward-mode derivative of the
 Newton-Euler recursion at fixed efforts, the control laws' derivatives by central
-differences), and ``check``'s integrands with the kernel's ``energies``: T from
-the body velocities and inertias, V from the bodies' positions and the joint
-springs, the power joint damping and friction dissipate from the joint rates;
-anything else (a free robot's momentum) comes from the generated Python of the
-full recursive path, built in this process when first asked for.  The kernel's numbers agree with the generated code to rounding
-(~1e-13 relative, a different order of operations), not to the bit.
+differences), and ``check``'s integrands with the kernel's ``energies``
+(``Energies``: T, V and the power joint damping and friction dissipate, from the
+kinematics); anything else (a free robot's momentum) comes from the generated
+Python of the full recursive path, built in this process when first asked for.
+The kernel's numbers agree with the generated code to rounding (~1e-13 relative,
+a different order of operations), not to the bit.
 """
 from __future__ import annotations
 
