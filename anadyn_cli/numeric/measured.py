@@ -36,7 +36,9 @@ the differentiated quaternion, w = 2 vec(conj(q) (x) dq).
 from __future__ import annotations
 
 import csv
+import io
 import math
+import warnings
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -271,11 +273,12 @@ def read_table(path, required, optional=(), note: str = "") -> Table:
                          source=source)
     try:
         with open(path, newline="", encoding="utf-8-sig") as handle:
-            lines = list(csv.reader(handle))
+            text = handle.read()
+        fast = _numbers(text)
+        rows = _numbered(text) if fast is None else [fast[0]]
     except (OSError, UnicodeDecodeError, csv.Error) as err:
         raise ModelError(f"cannot read it as CSV text ({getattr(err, 'strerror', None) or err})",
                          source=source) from None
-    rows = [(number, row) for number, row in enumerate(lines, 1) if any(f.strip() for f in row)]
     if not rows:
         raise ModelError(f"is empty: expected a header row ({', '.join(required)}) and one "
                          "row of numbers per sample", source=source)
@@ -291,24 +294,47 @@ def read_table(path, required, optional=(), note: str = "") -> Table:
             raise ModelError(f"column {name} appears {header.count(name)} times; give it "
                              "once", source=source, line=line)
     index = [header.index(name) for name in wanted]
-    body = rows[1:]
-    try:                        # at once (NumPy reads each text as float() does) ...
-        if any(len(row) != len(header) for _, row in body):
-            raise ValueError
-        values = np.array([[row[c] for c in index] for _, row in body],
-                          dtype=float).reshape(len(body), len(index))
-        if not np.isfinite(values).all():
-            raise ValueError
-    except ValueError:          # ... else value by value, to say where and what
-        values = _values(body, header, index, source)
+    if fast is not None and fast[1].shape[1] == len(header):    # every value a finite number
+        values = fast[1][:, index]
+    else:                       # value by value, to say where and what
+        values = _values(_numbered(text)[1:], header, index, source)
     table = Table(source, dict(zip(wanted, values.T)))
     t = table["t"]
     back = np.flatnonzero(np.diff(t) <= 0)
     if len(back):
         k = int(back[0]) + 1
         raise ModelError(f"times must increase, got {t[k]:g} after {t[k - 1]:g}",
-                         source=source, line=rows[k + 1][0], path="column t")
+                         source=source, line=_numbered(text)[k + 1][0], path="column t")
     return table
+
+
+def _numbered(text: str) -> list[tuple[int, list[str]]]:
+    """The CSV rows of ``text`` that are not blank, with their line numbers."""
+    return [(number, row) for number, row in enumerate(csv.reader(io.StringIO(text)), 1)
+            if any(f.strip() for f in row)]
+
+
+def _numbers(text: str) -> tuple[tuple[int, list[str]], np.ndarray] | None:
+    """((line, the header row), the table below it) when every line below the first
+    that is not blank is numbers separated by commas, as many on each and every one
+    finite (read at once by NumPy, each text as float() reads it); None otherwise,
+    and for a table without rows (``read_table`` then reads the rows one by one, to
+    say where and what is wrong)."""
+    reader = csv.reader(io.StringIO(text))
+    header = next((row for row in reader if any(f.strip() for f in row)), None)
+    if header is None:
+        return None
+    line = reader.line_num
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")           # no rows: said below
+            table = np.loadtxt(io.StringIO(text), delimiter=",", comments=None, ndmin=2,
+                               skiprows=line, dtype=float, quotechar='"')
+    except ValueError:
+        return None
+    if table.size == 0 or not np.isfinite(table).all():
+        return None
+    return (line, header), table
 
 
 def _values(body, header, index, source: str) -> np.ndarray:
