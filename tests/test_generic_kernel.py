@@ -1,8 +1,9 @@
 """The generic kernel (``anadyn_cli.numeric.generic``): the recursions compiled
 once, over a robot's numeric tables.
 
-- against Pinocchio's ABA, RNEA and CRBA on URDF arms and example-robot-data
-  robots (root welded), 20 random states each, 1e-12 relative;
+- against Pinocchio's ABA, RNEA, CRBA and kinetic and potential energies on URDF
+  arms and example-robot-data robots (root welded), 20 random states each, 1e-12
+  relative;
 - against anadyn's generated code (rhs, inverse dynamics, M F B, efforts) on
   the YAML robots it serves, 1e-12 (not bit for bit: another order of
   operations);
@@ -152,6 +153,15 @@ def test_kernel_matches_pinocchio(name, kernel):
         M = np.empty((n, n))
         kernel.mass(tables.ints, tables.doubles, q, M)
         assert rel(M, A.T @ Mp @ A) < 1e-12
+        energies = np.empty(3)                    # T, V (gravity, springs), P_d
+        kernel.energies(tables.ints, tables.doubles, 1, np.concatenate([q, dq]), energies)
+        springs = [(b.stiffness, b.rest) for b in (pl.bodies[i] for i in pl.moving)]
+        V = pin.computePotentialEnergy(model, data, qp) + sum(
+            0.5 * k * (th - rest) ** 2 for (k, rest), th in zip(springs, theta))
+        dissipated = -(A @ dq) @ (pas + np.array([k * (th - rest) for (k, rest), th
+                                                  in zip(springs, theta)]))
+        assert rel(energies, [pin.computeKineticEnergy(model, data, qp, vp), V,
+                              dissipated]) < 1e-12
         if tables.mode == generic.tables.IDENTITY and not pas.any():
             # the Jacobian (exact, forward mode) against Pinocchio's ABA derivatives
             J = np.empty((2 * n, 2 * n))
