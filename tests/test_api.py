@@ -86,7 +86,10 @@ def test_compare_and_accuracy():
     study = anadyn.accuracy(RR, methods=["rk45", "DOP853"], tolerances=[1e-4], repeats=1,
                             t_end=0.5)
     assert {r.method for r in study.rows} == {"RK45", "DOP853"}
-    assert study.computation == {"formulation": None, "evaluator": "recursive"}
+    assert study.computation == {"formulation": None, "evaluator": "recursive",
+                                 "code": study.computation["code"]}
+    assert study.computation["code"].startswith(("generated Python", "native C",
+                                                 "generic kernel"))
 
 
 def test_export_writes_only_into_the_given_folder(tmp_path):

@@ -4,7 +4,9 @@ trees of revolute and prismatic joints) and the closed forms (Kane's or Lagrange
 equations differentiated symbolically) give the same point, A, B, A_closed_loop and
 equilibria to ~1e-10 relative; A and the accelerations agree with Pinocchio's
 ``computeABADerivatives`` (UR5) and its RNEA derivatives reduced to anadyn's coordinates
-(Panda, whose second finger mimics the first).  Which evaluator ran is recorded.
+(Panda, whose second finger mimics the first), by both codes of the recursive evaluator
+(the generated derivatives, and the generic kernel: tests/test_linearize_kernel.py).
+Which evaluator and code ran is recorded.
 
 Independent sources: the closed forms are SymPy's derivation and differentiation of
 Kane's (or Lagrange's) equations, sharing nothing with the traced recursions but the
@@ -49,15 +51,31 @@ def points(r, count: int, seed: int = 1):
 def assert_same(recursive, closed, tol=1e-10):
     assert (recursive.evaluator, recursive.formulation) == ("recursive", None)
     assert closed.evaluator == "closed-form"
-    p, c = recursive.point, closed.point
+    assert_same_numbers(recursive, closed, tol)
+
+
+def assert_same_numbers(one, other, tol=1e-10):
+    """Two linearizations: the same point (its efforts' source too), A, B and
+    A_closed_loop to ``tol`` relative, controllability rank, state and units."""
+    p, c = one.point, other.point
     assert (p.efforts_from, p.equilibrium) == (c.efforts_from, c.equilibrium)
     for name, a, b in (("q", p.q, c.q), ("dq", p.dq, c.dq), ("tau", p.tau, c.tau),
-                       ("ddq", p.ddq, c.ddq), ("A", recursive.A, closed.A),
-                       ("B", recursive.B, closed.B),
-                       ("A_closed_loop", recursive.A_closed_loop, closed.A_closed_loop)):
+                       ("ddq", p.ddq, c.ddq), ("A", one.A, other.A), ("B", one.B, other.B),
+                       ("A_closed_loop", one.A_closed_loop, other.A_closed_loop)):
         assert_close(name, a, b, tol)
-    assert recursive.controllability_rank == closed.controllability_rank
-    assert recursive.state == closed.state and recursive.units == closed.units
+    assert one.controllability_rank == other.controllability_rank
+    assert one.state == other.state and one.units == other.units
+
+
+def kernel_road(monkeypatch) -> None:
+    """Linearizations by the generic kernel from here on (the tests' ANADYN_NATIVE=0
+    lifted); skipped where no kernel can be built."""
+    from anadyn_cli.numeric import generic
+
+    monkeypatch.delenv("ANADYN_NATIVE", raising=False)
+    monkeypatch.delenv("ANADYN_GENERIC", raising=False)
+    if generic.kernel() is None:
+        pytest.skip("no generic kernel (no C compiler)")
 
 
 @pytest.mark.parametrize("name, count", [("rr.yaml", 3), ("rrt.yaml", 3), ("forced", 3),
@@ -112,7 +130,9 @@ def test_a_spherical_joint_runs_the_closed_forms(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("options, ran, header", [
-    ([], {"formulation": None, "evaluator": "recursive"}, "rr (recursive Newton-Euler) at"),
+    ([], {"formulation": None, "evaluator": "recursive",
+          "code": "generated Python (the generic kernel is off: ANADYN_NATIVE=0)"},
+     "rr (recursive Newton-Euler, generated Python) at"),
     (["--formulation", "lagrange"], {"formulation": "lagrange", "evaluator": "closed-form"},
      "rr (lagrange closed forms) at"),
     (["--evaluator", "closed-form"], {"formulation": "kane", "evaluator": "closed-form"},
@@ -146,13 +166,21 @@ def pinocchio_model(path: Path, names: list[str]):
     return pin, model, T
 
 
-def test_A_matches_pinocchios_aba_derivatives_on_the_ur5():
+#: the recursive evaluator's two codes (``linearize.recursive.road``)
+CODES = ["generated Python", "generic kernel"]
+
+
+@pytest.mark.parametrize("code", CODES)
+def test_A_matches_pinocchios_aba_derivatives_on_the_ur5(code, monkeypatch):
+    if code == "generic kernel":
+        kernel_road(monkeypatch)
     r = robot_of("ur5.urdf")
     names = [c.name for c in r.coordinates]
     pin, model, T = pinocchio_model(REPO / "robots" / "ur5.urdf", names)
     data = model.createData()
     for at in points(r, 2, seed=3):
         result = service.linearize(r, at=at)
+        assert result.code.startswith(code)
         p = result.point
         q, v, tau = T @ p.q, T @ p.dq, T @ p.tau
         pin.computeABADerivatives(model, data, q, v, tau)
@@ -165,9 +193,12 @@ def test_A_matches_pinocchios_aba_derivatives_on_the_ur5():
         assert_close("B", result.B[n:], T.T @ Minv @ T, 1e-10)
 
 
-def test_A_matches_pinocchios_rnea_derivatives_on_the_panda():
+@pytest.mark.parametrize("code", CODES)
+def test_A_matches_pinocchios_rnea_derivatives_on_the_panda(code, monkeypatch):
     """The Panda's fingers move together (one coordinate): M = T^T M_pin T and
     K = -T^T [dID/dq, dID/dv + damping] T at anadyn's accelerations (Pinocchio's own)."""
+    if code == "generic kernel":
+        kernel_road(monkeypatch)
     r = robot_of("panda.urdf")
     names = [c.name for c in r.coordinates]
     pin, model, T = pinocchio_model(REPO / "robots" / "panda.urdf", names)
@@ -176,6 +207,7 @@ def test_A_matches_pinocchios_rnea_derivatives_on_the_panda():
     assert len(damping) == model.nv
     for at in points(r, 2, seed=5):
         result = service.linearize(r, at=at)
+        assert result.code.startswith(code)
         p = result.point
         q, v = T @ p.q, T @ p.dq
         M = T.T @ pin.crba(model, data, q) @ T

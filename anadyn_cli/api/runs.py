@@ -182,9 +182,10 @@ def linearize(robot, at: str | None = None, equilibrium: bool = False,
     :param symbolic: also give the matrices with the parameters as symbols.
     :param efforts: "auto", "controller", "holding" or "zero" (unless ``at`` gives them).
     :param formulation: "kane" or "lagrange": the closed forms of these equations.
-    :param evaluator: "recursive" (the generated derivatives of the recursive
-        Newton-Euler algorithm) or "closed-form" [recursive unless a formulation is
-        given or the robot has a spherical joint].
+    :param evaluator: "recursive" (the recursive Newton-Euler algorithm and its exact
+        derivatives, on the generic kernel where it serves the robot, else generated
+        for it; ``code`` in the result says which) or "closed-form" [recursive unless
+        a formulation is given or the robot has a spherical joint].
     :returns: a ``Linearization`` (``A``, ``B``, ``A_closed_loop`` as numpy arrays,
         ``eigenvalues``, ``controllability_rank``).
     """

@@ -120,14 +120,11 @@ class GenericModel(NumericModel):
                         if "TRAJECTORY" in namespace else None)
         self._motion_error = namespace.get("MOTION_ERROR")
         self._jacobian = self.jacobian
-        nm = tables.A.shape[0]
-        self._select = np.zeros((nm, len(self.effort_names)))     # efforts -> joint forces
-        for k, (j, scale) in enumerate(zip(tables.actuator_joint, tables.actuator_scale)):
-            self._select[j, k] = scale                            # a drive's N k_t, else 1
+        self._select = tables.effort_map()                        # efforts -> joint forces
         self._B = tables.A.T @ self._select                       # constant: theta affine
         self._B.setflags(write=False)
         self.integrands = Energies(tables, module)        # check's T, V and P_d
-        self._zero = np.zeros(nm)
+        self._zero = np.zeros(tables.A.shape[0])
         self.native_note = "generic kernel"      # first_run adds what becomes of the robot's code
 
     def full(self) -> NumericModel:

@@ -31,6 +31,13 @@ class Tables:
     mode: int
     actuator_scale: tuple[float, ...] = ()   # generalized force per unit effort (a drive's N k_t)
 
+    def effort_map(self) -> np.ndarray:
+        """S (moving joints x efforts): the joint forces per unit effort, each effort on
+        its joint with its scale (a drive's N k_t, else 1); B = A^T S."""
+        S = np.zeros((self.A.shape[0], len(self.actuator_joint)))
+        S[list(self.actuator_joint), np.arange(len(self.actuator_joint))] = self.actuator_scale
+        return S
+
     def to_dict(self) -> dict:
         """Plain lists and numbers (a cache record's form)."""
         return {"ints": self.ints.tolist(), "doubles": self.doubles.tolist(),

@@ -13,12 +13,14 @@ d(ddq)/dx (u = tau_c(x0)) + M^-1 B d(tau_c)/dx, with zero efforts when the file
 has no controller (the motion ``simulate`` integrates).
 
 Two evaluators give these numbers (``equations.Road``; ``numeric.build``'s words,
-recorded as ``evaluator`` and ``formulation``): "recursive", the default on open
-trees of revolute and prismatic joints, runs the generated derivatives of the
-recursive Newton-Euler algorithm (``numeric.derivatives``: d(ddq)/dx and M^-1 B
-directly, no symbolic equations); "closed-form" differentiates the closed forms of
-Kane's or Lagrange's equations (``formulation``) symbolically as above, the road of
-a robot with a spherical joint.  The control laws' Jacobian is symbolic in both.
+recorded as ``evaluator`` and ``formulation``, and which code ran as ``code``):
+"recursive", the default on open trees of revolute and prismatic joints, runs the
+recursive Newton-Euler algorithm and its derivatives (d(ddq)/dx and M^-1 B
+directly, no symbolic equations) on the generic kernel, compiled once per
+installation, or where it cannot serve on the derivatives generated for the robot
+(``recursive.road``); "closed-form" differentiates the closed forms of Kane's or
+Lagrange's equations (``formulation``) symbolically as above, the road of a robot
+with a spherical joint.  The control laws' Jacobian is symbolic in both.
 
 The operating point is the file's initial state at t = 0 unless ``at``
 says otherwise; its efforts u0 are the given ones, else the controller's at
@@ -37,9 +39,9 @@ a time (the staircase form; better conditioned than the rank of
 
 One module per job: ``point`` (the operating point, the equilibrium search),
 ``equations`` (the evaluators' interface, the closed forms differentiated once),
-``recursive`` (the recursive evaluator), ``state_space`` (``linearize``),
-``modes`` (eigenvalues, controllability), ``parametric`` (the symbolic form),
-``writing`` (files, summary, report).
+``recursive`` (the recursive evaluator: the kernel's or the generated code),
+``state_space`` (``linearize``), ``modes`` (eigenvalues, controllability),
+``parametric`` (the symbolic form), ``writing`` (files, summary, report).
 """
 from .point import EFFORTS, EQUILIBRIUM_TOL, OperatingPoint, check_efforts, parse_at
 from .modes import RANK_TOL, controllability_rank, modes

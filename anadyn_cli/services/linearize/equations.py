@@ -1,9 +1,9 @@
 """The equations a linearization evaluates, by either of two evaluators with one
 interface (``Road``): ``Equations``, the closed forms of a formulation (Kane or
-Lagrange) differentiated symbolically, and ``recursive.RecursiveEquations``, the
-generated derivatives of the recursive Newton-Euler algorithm
-(``numeric.derivatives``).  At a time t and state (q, dq) (q: nq coordinates, dq: n
-speeds; tau: m efforts):
+Lagrange) differentiated symbolically, and the recursive Newton-Euler algorithm with
+its derivatives (``recursive.road``: the generic kernel's ``KernelEquations``, else
+the generated derivatives' ``RecursiveEquations``).  ``code`` says which code ran.
+At a time t and state (q, dq) (q: nq coordinates, dq: n speeds; tau: m efforts):
 
     terms(t, q, dq)               -> M (n, n), F (n,), B (n, m)
     accelerations(t, q, dq, tau)  -> ddq solving M ddq = F + B tau
@@ -40,16 +40,17 @@ class Road:
     and the control laws with their Jacobian (module docstring)."""
     formulation: str | None = None
     evaluator: str = "closed-form"
+    code: str = "SymPy expressions evaluated pointwise"     # what computes the numbers
     kinematic = None                # dq = W(q) u with a spherical joint (closed forms)
 
     def __init__(self, robot, q, dq, tau, symbolic: bool = False):
-        from ...numeric.closed_form import control_laws
-
         self.q, self.dq, self.tau = list(q), list(dq), list(tau)
         self.n, self.m = len(self.dq), len(self.tau)      # speeds (the size of M), efforts
         self.nq = len(self.q)                              # coordinates: n, or more with a
         self.laws = self.Lx = None                         # quaternion
         if robot.controller is not None and self.m:
+            from ...numeric.closed_form import control_laws
+
             self.laws = control_laws(robot, symbolic)
             self.Lx = jacobian(self.laws, self.q + self.dq)
 
@@ -105,9 +106,20 @@ class Equations(Road):
         return np.linalg.solve(M, K), np.linalg.solve(M, B)
 
 
+def positive_definite(M: np.ndarray) -> None:
+    """numpy.linalg.LinAlgError unless the mass matrix M is positive definite to
+    working precision: its smallest eigenvalue above n eps times its largest (joints
+    that together move nothing in the state, or a joint that moves no inertia,
+    leave M singular, and rounding decides its Cholesky factorization)."""
+    values = np.linalg.eigvalsh(M)
+    if values.size and not values[0] > len(M) * np.finfo(float).eps * values[-1]:
+        raise np.linalg.LinAlgError("mass matrix singular to working precision")
+
+
 def spd_solve(M: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """M^-1 rhs; numpy.linalg.LinAlgError unless M is positive definite."""
-    np.linalg.cholesky(M)
+    """M^-1 rhs; numpy.linalg.LinAlgError unless M is positive definite
+    (``positive_definite``)."""
+    positive_definite(M)
     return np.linalg.solve(M, rhs)
 
 

@@ -11,11 +11,15 @@ RANK_TOL = 1e-9
 
 
 def modes(A: np.ndarray, B: np.ndarray | None = None) -> list[dict]:
-    """Eigenvalues with natural frequency, damping ratio, time constant; PBH test with B."""
+    """Eigenvalues with natural frequency, damping ratio, time constant; PBH test with B
+    (A and B real: in real arithmetic for a real lambda, once per pair of complex
+    conjugates, [A - conj(lambda) I, B] being the conjugate of [A - lambda I, B],
+    with its singular values)."""
     values = np.linalg.eigvals(A)
     order = np.lexsort((values.imag, np.abs(values)))
     scale = max(np.linalg.norm(A, 2), np.linalg.norm(B, 2) if B is not None and B.size else 0.0,
                 1e-300)
+    smallest: dict = {}          # lambda (real, or with imag > 0) -> its PBH singular value
     result = []
     for lam in values[order]:
         size = abs(lam)
@@ -27,9 +31,11 @@ def modes(A: np.ndarray, B: np.ndarray | None = None) -> list[dict]:
             if B.size == 0:
                 entry["controllable"] = False
             else:
-                pbh = np.hstack([A - lam * np.eye(len(A)), B])
-                smallest = np.linalg.svd(pbh, compute_uv=False)[-1]
-                entry["controllable"] = bool(smallest > RANK_TOL * max(scale, size))
+                key = complex(lam.real, abs(lam.imag)) if lam.imag else float(lam.real)
+                if key not in smallest:
+                    pbh = np.hstack([A - key * np.eye(len(A)), B])
+                    smallest[key] = np.linalg.svd(pbh, compute_uv=False)[-1]
+                entry["controllable"] = bool(smallest[key] > RANK_TOL * max(scale, size))
         result.append(entry)
     return result
 

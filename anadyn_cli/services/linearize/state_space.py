@@ -41,6 +41,7 @@ class Linearization:
     symbolic_matrices: dict = field(default_factory=dict)   # name -> SymPy Matrix
     timings: dict = field(default_factory=dict)
     evaluator: str = "closed-form"            # what ran the numbers (numeric.build's words)
+    code: str = ""                            # and which code (``Road.code``)
 
 
 def linearize(robot, formulation: str | None = None, at: str | None = None,
@@ -114,7 +115,8 @@ def linearize(robot, formulation: str | None = None, at: str | None = None,
         A_closed_loop=A_cl, has_controller=eq.laws is not None,
         eigenvalues=modes(A, Bss), eigenvalues_closed_loop=modes(A_cl),
         controllability_rank=controllability_rank(A, Bss), timings=timings,
-        point_state=point_state, point_units=point_units, evaluator=eq.evaluator)
+        point_state=point_state, point_units=point_units, evaluator=eq.evaluator,
+        code=eq.code)
     if symbolic:
         start = time.perf_counter()
         result.symbolic_matrices = symbolic_form(robot, formulation or "kane", point)
@@ -128,9 +130,10 @@ def equations_of(robot, formulation: str | None, evaluator: str | None, eom,
                  timings: dict) -> Road:
     """The road to the numbers: the closed forms of ``eom``, or of ``formulation``
     ("kane", "lagrange") when it is named or ``evaluator`` is "closed-form" (Kane's
-    then), else the recursive evaluator (``recursive.RecursiveEquations``) when it
-    covers the robot, else Kane's closed forms; SettingError for a wrong choice
-    (``evaluator`` "recursive" with a formulation, or on a robot it does not cover)."""
+    then), else the recursive evaluator (``recursive.road``: the generic kernel, else
+    the generated derivatives) when it covers the robot, else Kane's closed forms;
+    SettingError for a wrong choice (``evaluator`` "recursive" with a formulation, or
+    on a robot it does not cover)."""
     from ...numeric.build import EVALUATORS, FORMULATIONS
 
     if evaluator is not None and evaluator not in EVALUATORS:
@@ -149,8 +152,9 @@ def equations_of(robot, formulation: str | None, evaluator: str | None, eom,
     start = time.perf_counter()
     if eom is None and formulation is None and evaluator != "closed-form" \
             and recursive.covers(robot):
-        eq = recursive.RecursiveEquations(robot)
-        timings["derive"] = time.perf_counter() - start         # the generated derivatives
+        eq = recursive.road(robot, timings)
+        timings["derive"] = (time.perf_counter() - start          # the plan and tables, or
+                             - timings.get("native_compile", 0.0))  # the generated derivatives
         return eq
     if eom is None:
         from ...symbolic.formulations import derive

@@ -19,6 +19,7 @@ def summary(result: Linearization) -> dict:
     rates = result.point_state[len(p.q):] if result.point_state else names
     return {
         "robot": result.robot, "formulation": result.formulation, "evaluator": result.evaluator,
+        "code": result.code,
         "state": result.state, "inputs": result.inputs, "units": result.units,
         "x0": [*map(float, p.q), *map(float, p.dq)], "u0": list(map(float, p.tau)),
         "operating_point": {
@@ -92,7 +93,8 @@ def report(result: Linearization) -> str:
     state = ", ".join(f"{s} = {v:.6g} {u}" for s, v, u in
                       zip(result.point_state or result.state, [*p.q, *p.dq],
                           result.point_units or units))
-    lines = [f"{result.robot} ({describe(result.formulation, result.evaluator)}) at "
+    code = f", {result.code.split(' (')[0]}" if result.evaluator == "recursive" else ""
+    lines = [f"{result.robot} ({describe(result.formulation, result.evaluator)}{code}) at "
              f"t = {p.t:g} s: {state}"]
     source = {"given": "given", "controller": "the controller's", "none": "zero",
               "holding": "static holding"}[p.efforts_from]

@@ -1,0 +1,141 @@
+"""`anadyn linearize`'s recursive evaluator on the generic kernel (``numeric.generic``,
+compiled once per installation) and on the derivatives generated for the robot
+(``numeric.derivatives``): the same point, ddq, A, B, A_closed_loop and rank to
+1e-10 relative on rr (a controller: closed-loop A), rrt, the double pendulum, the
+UR5, the Panda (a mimic finger), anadyn_features.urdf (a chain of mimic joints with
+offsets and multipliers: theta = A q + c, A not square) and rr_drives (gears, rotors
+and a controller); the kernel road generates no code; the generated road serves
+what the kernel cannot (ANADYN_GENERIC=0, external loads) and says why.
+Pinocchio's agreement, on both roads: tests/test_linearize_roads.py.
+
+Independent sources: the kernel is a hand-written C implementation of the
+recursions reading the robot's numeric tables; the generated road traces the
+recursions symbolically for this robot and differentiates them analytically (or in
+forward mode); they share the plan of the robot (``recursive.plan``) and nothing
+else.
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from anadyn_cli.cli import main
+from anadyn_cli.model import load_robot, robot_from_text
+from anadyn_cli.numeric import derivatives
+from anadyn_cli.services import linearize as service
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_linearize import pendulum  # noqa: E402
+from test_linearize_roads import (assert_same_numbers, kernel_road, points,  # noqa: E402
+                                  robot_of)
+
+REPO = Path(__file__).resolve().parent.parent
+MIMIC = REPO / "tests" / "data" / "urdf" / "anadyn_features.urdf"
+DRIVES = REPO / "robots" / "drives" / "rr_drives.yaml"
+
+
+def robot(name: str):
+    """test_linearize_roads' robots, the mimic URDF, the geared arm and a passive
+    pendulum (no actuator)."""
+    if name == "pendulum":
+        return robot_from_text(pendulum(), "pendulum.yaml")
+    return load_robot({"mimic": MIMIC, "drives": DRIVES}[name]) if name in ("mimic", "drives") \
+        else robot_of(name)
+
+
+def both(monkeypatch, r, **options):
+    """(by the kernel, by the generated derivatives) of ``service.linearize(r, **options)``."""
+    kernel_road(monkeypatch)
+    kernel = service.linearize(r, **options)
+    monkeypatch.setenv("ANADYN_GENERIC", "0")
+    generated = service.linearize(r, **options)
+    monkeypatch.delenv("ANADYN_GENERIC")
+    assert (kernel.evaluator, kernel.formulation, kernel.code) == ("recursive", None,
+                                                                   "generic kernel")
+    assert generated.code == "generated Python (the generic kernel is off: ANADYN_GENERIC=0)"
+    return kernel, generated
+
+
+@pytest.mark.parametrize("name, count", [("rr.yaml", 3), ("rrt.yaml", 2), ("double", 2),
+                                         ("pendulum", 1), ("mimic", 2), ("drives", 2),
+                                         ("ur5.urdf", 2), ("panda.urdf", 2)])
+def test_the_kernel_and_the_generated_derivatives_agree(name, count, monkeypatch):
+    r = robot(name)
+    for at in [None, *points(r, count, seed=11)]:
+        kernel, generated = both(monkeypatch, r, at=at)
+        assert_same_numbers(kernel, generated)
+        assert kernel.has_controller == (r.controller is not None)
+
+
+@pytest.mark.parametrize("name, efforts", [("rr.yaml", "holding"), ("rr.yaml", "zero"),
+                                           ("mimic", "holding"), ("pendulum", "auto")])
+def test_the_efforts_and_the_equilibrium_search_agree(name, efforts, monkeypatch):
+    r = robot(name)
+    assert_same_numbers(*both(monkeypatch, r, efforts=efforts))
+    kernel, generated = both(monkeypatch, r, equilibrium=True,
+                             efforts="zero" if efforts == "holding" else efforts)
+    assert kernel.point.searched and kernel.point.equilibrium
+    assert_same_numbers(kernel, generated, 1e-9)
+
+
+def test_a_cold_run_on_the_kernel_generates_no_code(monkeypatch, tmp_path, capsys):
+    kernel_road(monkeypatch)
+
+    def refused(*_, **__):
+        raise AssertionError("code generated")
+
+    monkeypatch.setattr(derivatives, "generate", refused)
+    from anadyn_cli.numeric.native import builder
+    monkeypatch.setattr(builder, "build", refused)
+    monkeypatch.setattr(builder, "build_in_background", refused)
+    monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "cache"))    # nothing cached
+    assert main(["linearize", str(MIMIC), "--out", str(tmp_path / "o")]) == 0
+    assert capsys.readouterr().out.startswith(
+        "anadyn_features (recursive Newton-Euler, generic kernel) at")
+    figures = json.loads((tmp_path / "o" / "linearize.json").read_text())
+    assert (figures["evaluator"], figures["formulation"], figures["code"]) == (
+        "recursive", None, "generic kernel")
+    assert not (tmp_path / "cache").exists() or not any((tmp_path / "cache").iterdir())
+
+
+def test_what_the_kernel_cannot_serve_runs_the_generated_derivatives(monkeypatch):
+    """External loads (test_export's "forced" arm): the tables cannot hold them."""
+    kernel_road(monkeypatch)
+    r = robot_of("forced")
+    result = service.linearize(r, at="q1=0.2,s=0.1,dq1=0.3")
+    assert result.code == "generated Python (external loads)"
+    assert np.all(np.isfinite(result.A))
+
+
+#: a joint that moves an inertia of 1e-18 about its axis (and its mass along it): M is
+#: positive definite in exact arithmetic, singular to working precision (cond ~1e17)
+SPIN = """\
+name: spin
+gravity: [0, -9.81, 0]
+coordinates: {a: {initial: 0.2}, b: {initial: 0.1}}
+bodies:
+  - {name: one, joint: {type: revolute, axis: [0, 0, 1]}, mass: 1, com: [0.5, 0, 0]}
+  - {name: two, parent: one, joint: {type: revolute, axis: [1, 0, 0], origin: [1, 0, 0]},
+     mass: 1, com: [0.3, 0, 0], inertia: {ixx: 1e-18, iyy: 0.01, izz: 0.01}}
+"""
+
+
+@pytest.mark.parametrize("options", [[], ["--formulation", "kane"]])
+@pytest.mark.parametrize("generic", ["1", "0"])
+def test_a_mass_matrix_singular_to_working_precision_is_refused_by_every_road(
+        options, generic, monkeypatch, tmp_path, capsys):
+    """Rounding decides whether a Cholesky factorization of such an M succeeds (iCub's
+    differs between the roads); every road refuses it alike, exit 3."""
+    kernel_road(monkeypatch)
+    monkeypatch.setenv("ANADYN_GENERIC", generic)
+    path = tmp_path / "spin.yaml"
+    path.write_text(SPIN)
+    assert main(["linearize", str(path), *options, "--out", str(tmp_path / "o")]) == 3
+    assert capsys.readouterr().err == (
+        "anadyn: error: the mass matrix is singular or not positive definite at t = 0 s, "
+        "(a = 0.2, b = 0.1, da = 0, db = 0)\n")
+    assert not (tmp_path / "o").exists()
