@@ -413,6 +413,19 @@ def test_kernel_energies_and_powers_match_the_generated_ones(path, kernel):
     assert rel(model.powers(t, q, u), expected) < 1e-12 and np.all(expected[1] > 0)
 
 
+def kernel_only(path: str, kernel) -> generic.GenericModel:
+    """The GenericModel of the robot file ``path`` whose generated code (``full``) must
+    not be built: asking for it fails the test."""
+    robot = load_robot(ROOT / path)
+    pl = recursive.plan(robot)
+    tables, _ = generic.pack(pl)
+
+    def full():
+        raise AssertionError("a cold run built the robot's generated code")
+    return generic.GenericModel(RobotInfo.from_robot(robot), generic.Layout.of(pl), tables,
+                                kernel, generic.small_source(pl, robot), full)
+
+
 @pytest.mark.parametrize("path", ["configs/chain6.yaml", "robots/satellite.yaml"])
 def test_a_run_on_the_kernel_needs_none_of_the_generated_code(path, kernel):
     """``simulate`` on a GenericModel whose generated code (``full``) may not be
@@ -420,17 +433,10 @@ def test_a_run_on_the_kernel_needs_none_of_the_generated_code(path, kernel):
     contacts) is the kernel's, not a fallback that would generate the whole robot
     during a cold run."""
     from anadyn_cli.services.simulate import simulate
-    robot = load_robot(ROOT / path)
-    pl = recursive.plan(robot)
-    tables, _ = generic.pack(pl)
-
-    def full():
-        raise AssertionError("a cold run built the robot's generated code")
-    model = generic.GenericModel(RobotInfo.from_robot(robot), generic.Layout.of(pl), tables,
-                                 kernel, generic.small_source(pl, robot), full)
+    model = kernel_only(path, kernel)
     result = simulate(model, t_end=0.2)
     assert result.solution.success and len(result.t) == 21
-    if pl.spherical:
+    if model.quaternions:
         assert 0.0 <= result.quaternion_drift < 1e-9
 
 
@@ -439,15 +445,7 @@ def test_a_check_on_the_kernel_needs_none_of_the_generated_code(path, kernel):
     """``check`` (energies, dissipated power, efforts, M, the Jacobian) on a GenericModel
     whose generated code may not be built, and its energy balance closes."""
     from anadyn_cli.services.check import check
-    robot = load_robot(ROOT / path)
-    pl = recursive.plan(robot)
-    tables, _ = generic.pack(pl)
-
-    def full():
-        raise AssertionError("a cold check built the robot's generated code")
-    model = generic.GenericModel(RobotInfo.from_robot(robot), generic.Layout.of(pl), tables,
-                                 kernel, generic.small_source(pl, robot), full)
-    report = check(model, t_end=0.3, samples=5, probe_calls=200)
+    report = check(kernel_only(path, kernel), t_end=0.3, samples=5, probe_calls=200)
     assert report.dissipated is not None and report.dissipated[-1] > 0
     assert report.energy_error < 1e-6
 

@@ -99,7 +99,28 @@ def test_a_cold_run_on_the_kernel_generates_no_code(monkeypatch, tmp_path, capsy
     figures = json.loads((tmp_path / "o" / "linearize.json").read_text())
     assert (figures["evaluator"], figures["formulation"], figures["code"]) == (
         "recursive", None, "generic kernel")
-    assert not (tmp_path / "cache").exists() or not any((tmp_path / "cache").iterdir())
+    # the cache holds the URDF's import (for the next run), nothing of the robot's code
+    assert [p.suffix for p in (tmp_path / "cache").iterdir()] == [".json"]
+    assert not (tmp_path / "cache-native").exists()
+
+
+def test_a_second_run_reads_the_urdfs_import_from_the_cache(monkeypatch, tmp_path):
+    """As the commands that run a model do, linearize files a URDF's import under the
+    cache and reads it back the next time (no XML parsed), with the same results."""
+    from anadyn_cli.model import urdf
+    kernel_road(monkeypatch)
+    monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "cache"))
+    assert main(["linearize", str(MIMIC), "--out", str(tmp_path / "first")]) == 0
+
+    def no_import(*args, **kwargs):
+        raise AssertionError("the URDF was imported again")
+    monkeypatch.setattr(urdf, "import_urdf", no_import)
+    assert main(["linearize", str(MIMIC), "--out", str(tmp_path / "second")]) == 0
+    for name in ("linearize_A.csv", "linearize_B.csv"):
+        assert (tmp_path / "second" / name).read_bytes() == (tmp_path / "first" / name).read_bytes()
+    assert main(["linearize", str(MIMIC), "--no-cache", "--out", str(tmp_path / "third")]) == 0
+    assert ((tmp_path / "third/linearize_A.csv").read_bytes()
+            == (tmp_path / "first/linearize_A.csv").read_bytes())
 
 
 def test_what_the_kernel_cannot_serve_runs_the_generated_derivatives(monkeypatch):

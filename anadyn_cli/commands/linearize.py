@@ -39,18 +39,19 @@ def linearize(
     formulation: Formulation = FormulationOpt,
     evaluator: Evaluator = EvaluatorOpt,
     out: Path = OutOpt,
+    cache: bool = typer.Option(True, help="Reuse a URDF's import from the cache."),
 ) -> None:
     """A = d(dx/dt)/dx and B = d(dx/dt)/d(tau) about an operating point, the closed-loop A
     under the file's control laws, eigenvalues with natural frequencies and damping ratios,
     and the controllability rank: linearize.json and linearize_*.csv."""
     import time
 
-    from ..model import load_robot
+    from ..numeric.build import robot_of
     from ..services import linearize as service
 
     start = time.perf_counter()
     timings: dict = {}
-    model = load_robot(robot)
+    model = robot_of(robot, cache)
     timings["load"] = time.perf_counter() - start
     service.check_efforts(model, efforts.value, service.parse_at(at, model))   # before any work
     result = service.linearize(model, None if formulation is None else formulation.value, at,

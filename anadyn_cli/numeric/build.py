@@ -260,6 +260,19 @@ def _robot_text(path: str | Path, use_cache: bool) -> tuple[str, str, tuple | No
     return entry["code"], name, filed
 
 
+def robot_of(path: str | Path, use_cache: bool):
+    """The validated ``Robot`` of the file ``path`` (a library name too); under the
+    cache, a URDF's import that an earlier run filed is read back (``_robot_text``),
+    and one read now is filed for the next run."""
+    from ..model import robot_from_text
+
+    text, source, filed = _robot_text(path, use_cache)
+    robot = robot_from_text(text, source)
+    if filed is not None:
+        cache.store(filed[0], URDF_IMPORT, filed[1])
+    return robot
+
+
 def _from_path(path: str | Path, formulation: str | None, evaluator: str | None,
                use_cache: bool, timings: dict) -> NumericModel:
     text, source, filed = _robot_text(path, use_cache)
