@@ -60,7 +60,8 @@ class NumericModel:
     Newton-Euler recursions' code, with its RNEA) or "closed-form" (the closed forms of
     ``formulation``, "kane" or "lagrange"; None on the recursive path)."""
     #: the generic kernel's T, V and P_d over the robot's tables (``generic.Energies``),
-    #: in place of the generated ``potential`` and ``powers``; None: the generated ones
+    #: in place of the generated ``potential`` and ``powers`` where the kernel is
+    #: available; None: the generated ones
     integrands = None
 
     def __init__(self, info: RobotInfo, source: str, formulation: str | None = "kane"):
@@ -250,7 +251,7 @@ class NumericModel:
         when the model has them."""
         if not self.has_forces:
             return np.zeros((2, *np.broadcast_shapes(np.shape(t), np.shape(q)[1:])))
-        if self.integrands is not None:
+        if self.integrands is not None and self.integrands.available():
             return self.integrands.powers(t, q, dq)
         with np.errstate(all="ignore"):
             return np.moveaxis(self._powers(t, *q, *dq), -1, 0)
@@ -293,7 +294,7 @@ class NumericModel:
     def energy(self, q, dq) -> tuple[np.ndarray, np.ndarray]:
         """(T, V) over arrays of states: T = 1/2 dq^T M dq, V of gravity and springs;
         from ``integrands`` when the model has them."""
-        if self.integrands is not None:
+        if self.integrands is not None and self.integrands.available():
             return self.integrands.energy(q, dq)
         with np.errstate(all="ignore"):
             M, _, _ = self._mfb(0.0, *q, *dq)

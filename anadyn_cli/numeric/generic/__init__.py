@@ -270,17 +270,16 @@ def first_run(robot, pl, info, full, own_code, entry: str,
 
 
 def stored_energies(stored) -> Energies | None:
-    """``check``'s integrands (``Energies``) for a warm run, from the tables stored
-    with the robot's cache entry (``Tables.to_dict``); None when there are none,
-    they are damaged, or the kernel is off (``enabled``) or cannot be built."""
+    """``check``'s integrands (``Energies``, the kernel loaded when first asked for)
+    for a warm run, from the tables stored with the robot's cache entry
+    (``Tables.to_dict``); None when there are none, they are damaged, or the kernel
+    is off (``enabled``)."""
     if stored is None or not enabled():
         return None
     try:
-        tables = Tables.from_dict(stored)
+        return Energies(Tables.from_dict(stored))
     except (KeyError, TypeError, ValueError):
         return None
-    module = kernel()
-    return None if module is None else Energies(tables, module)
 
 
 #: beside the derivation cache entry KEY.json: KEY.kernel, sealed, what the first

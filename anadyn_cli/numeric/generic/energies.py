@@ -24,12 +24,24 @@ from .tables import Tables
 
 
 class Energies:
-    """The kernel's T, V and P_d of one robot (module docstring)."""
+    """The kernel's T, V and P_d of one robot (module docstring); ``module`` the
+    kernel, or None to load it when first asked for (``available``)."""
 
-    def __init__(self, tables: Tables, module):
+    def __init__(self, tables: Tables, module=None):
         self._kernel, self._ints, self._doubles = module, tables.ints, tables.doubles
+        self._asked = module is not None
         #: damping, friction, friction velocity, stiffness, rest of each moving joint
         self.passive = tables.passive()
+
+    def available(self) -> bool:
+        """Whether the kernel is there: loaded when first asked for (built then, the
+        first time ever in this cache folder), so that a run that never asks for an
+        energy loads nothing; False when native code cannot be built."""
+        if not self._asked:
+            from . import kernel
+
+            self._asked, self._kernel = True, kernel()
+        return self._kernel is not None
 
     def _evaluate(self, q, dq) -> tuple[np.ndarray, tuple]:
         """[T, V, P_d] over broadcast arrays q (nq, ...) and dq (n, ...) -> ((count, 3),
