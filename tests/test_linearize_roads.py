@@ -170,14 +170,20 @@ def pinocchio_model(path: Path, names: list[str]):
 CODES = ["generated Python", "generic kernel"]
 
 
-@pytest.mark.parametrize("code", CODES)
-def test_A_matches_pinocchios_aba_derivatives_on_the_ur5(code, monkeypatch):
+def on_code(code: str, monkeypatch, urdf: str):
+    """(robot, its coordinate names, pinocchio, Pinocchio's model, T, its data) of the
+    URDF ``urdf`` in robots/, linearized by the recursive evaluator's ``code``."""
     if code == "generic kernel":
         kernel_road(monkeypatch)
-    r = robot_of("ur5.urdf")
+    r = robot_of(urdf)
     names = [c.name for c in r.coordinates]
-    pin, model, T = pinocchio_model(REPO / "robots" / "ur5.urdf", names)
-    data = model.createData()
+    pin, model, T = pinocchio_model(REPO / "robots" / urdf, names)
+    return r, names, pin, model, T, model.createData()
+
+
+@pytest.mark.parametrize("code", CODES)
+def test_A_matches_pinocchios_aba_derivatives_on_the_ur5(code, monkeypatch):
+    r, names, pin, model, T, data = on_code(code, monkeypatch, "ur5.urdf")
     for at in points(r, 2, seed=3):
         result = service.linearize(r, at=at)
         assert result.code.startswith(code)
@@ -197,12 +203,7 @@ def test_A_matches_pinocchios_aba_derivatives_on_the_ur5(code, monkeypatch):
 def test_A_matches_pinocchios_rnea_derivatives_on_the_panda(code, monkeypatch):
     """The Panda's fingers move together (one coordinate): M = T^T M_pin T and
     K = -T^T [dID/dq, dID/dv + damping] T at anadyn's accelerations (Pinocchio's own)."""
-    if code == "generic kernel":
-        kernel_road(monkeypatch)
-    r = robot_of("panda.urdf")
-    names = [c.name for c in r.coordinates]
-    pin, model, T = pinocchio_model(REPO / "robots" / "panda.urdf", names)
-    data = model.createData()
+    r, names, pin, model, T, data = on_code(code, monkeypatch, "panda.urdf")
     damping = np.array([float(b.joint.damping) for b in r.bodies if b.joint.type != "fixed"])
     assert len(damping) == model.nv
     for at in points(r, 2, seed=5):
