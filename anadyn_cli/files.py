@@ -5,7 +5,8 @@ then renamed over its target (``os.replace`` is atomic on one file system),
 so a failed or interrupted run never leaves a half-written file or clobbers
 an earlier good one.  Files get the permissions the user's umask gives any new
 file (0644 under the usual 022), not the temporary file's private 0600.
-Plots are drawn by ``output.plots`` and written here as bytes.
+Plots are drawn by ``output.plots`` and written here as bytes, CSV tables
+formatted by ``output.csv_table`` and written here as text.
 
 The files of one run can form a set (``file_set``; a service's ``write``
 decorated with ``one_set``): all are written to temporary names first and
@@ -24,8 +25,6 @@ import tempfile
 import threading
 from contextlib import contextmanager
 from pathlib import Path
-
-import numpy as np
 
 from .errors import CheckFailed, ModelError, NumericalError
 from .progress import uninterrupted
@@ -241,19 +240,3 @@ def write_text(path: Path, text: str) -> None:
 def write_json(path: Path, data: dict) -> None:
     """A command's key figures (read by ``anadyn batch``)."""
     write_text(path, json.dumps(data, indent=2, sort_keys=True, default=float) + "\n")
-
-
-def csv_text(header: list[str], columns: list[np.ndarray]) -> str:
-    """CSV with a header row; each number as the shortest text that reads back to
-    the same double (Python's ``repr``: 0.08, not 0.080000000000000002), and
-    never a negative zero."""
-    text = ",".join(header) + "\n"
-    if columns:
-        table = np.column_stack([np.asarray(c, dtype=float) for c in columns]) + 0.0
-        if len(table):              # the list's text: repr of every float, in one C loop
-            text += str(table.tolist())[2:-2].replace(", ", ",").replace("],[", "\n") + "\n"
-    return text
-
-
-def write_csv(path: Path, header: list[str], columns: list[np.ndarray]) -> None:
-    write_text(path, csv_text(header, columns))

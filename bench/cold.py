@@ -195,9 +195,10 @@ def motion(coordinates: list[str], path: Path) -> None:
 
 
 def install(work: Path) -> Path:
-    """A cache folder as an installation has it after its first run ever: the
-    generic kernel compiled and SciPy's odeint self-check recorded
-    (``numeric.odepack``: else each first run imports scipy.integrate), both once
+    """A cache folder as an installation has it after its first runs: the
+    generic kernel and the CSV writer (``output.csv_table``, which a first run
+    compiles in the background) compiled and SciPy's odeint self-check recorded
+    (``numeric.odepack``: else each first run imports scipy.integrate), all once
     per installation; ``anadyn_runs`` copies its native folder.  Sets
     ANADYN_CACHE_DIR to it for this process."""
     installed = work / "installed"
@@ -208,8 +209,11 @@ def install(work: Path) -> Path:
     import anadyn_cli
     compileall.compile_dir(Path(anadyn_cli.__file__).parent, quiet=1)
     from anadyn_cli.numeric import generic, odepack
+    from anadyn_cli.output import csv_table
     if generic.kernel() is None:
         sys.exit("no generic kernel: no C compiler or Python headers")
+    if csv_table.writer() is None:
+        sys.exit("no CSV writer: it does not compile")
     odepack.extension()
     return installed
 

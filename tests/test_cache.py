@@ -139,10 +139,11 @@ def _damage(path: Path, how: str) -> None:
     elif how == "unsealed":
         path.write_text(json.dumps(entry))
     else:
+        code = "code" if "code" in entry else "light"   # the recursive path's light source
         hostile = {"not a mapping": [1, 2, 3], "another robot's": {**entry, "digest": "0" * 64},
-                   "no code": {k: v for k, v in entry.items() if k != "code"},
-                   "code not text": {**entry, "code": 12},
-                   "code cut short": {**entry, "code": entry["code"][: len(entry["code"]) // 2]},
+                   "no code": {k: v for k, v in entry.items() if k != code},
+                   "code not text": {**entry, code: 12},
+                   "code cut short": {**entry, code: entry[code][: len(entry[code]) // 2]},
                    "no robot info": {k: v for k, v in entry.items() if k != "robot"},
                    "robot info of the wrong type": {**entry, "robot": [None]}}.get(how)
         payload = (json.dumps(hostile).encode() if how != "deeply nested"    # RecursionError

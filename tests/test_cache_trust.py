@@ -98,9 +98,17 @@ def plant(genuine: Path, into: Path, marker: Path) -> None:
     every library writes ``marker`` when run."""
     (into / "cache").mkdir(parents=True)
     (into / "cache-native").mkdir()
+    hostile = f"open({str(marker)!r}, 'w').write('ran')\n"
     for entry in (genuine / "cache").glob("*.json"):
         value = json.loads(cache.unseal(entry.read_bytes()))
-        value["code"] = f"open({str(marker)!r}, 'w').write('ran')\n" + value["code"]
+        code = "code" if "code" in value else "light"     # the recursive path's light source
+        value[code] = hostile + value[code]
+        side = entry.with_suffix(cache.TEXTS)               # and its side file's texts
+        if side.exists():
+            texts = json.loads(cache.unseal(side.read_bytes()))
+            payload = json.dumps({**texts, "code": hostile + texts["code"]}).encode()
+            (into / "cache" / side.name).write_bytes(cache.seal(payload))
+            value["texts"] = hashlib.sha256(payload).hexdigest()
         (into / "cache" / entry.name).write_bytes(cache.seal(json.dumps(value).encode()))
     for record in (genuine / "cache-native").glob("*.lib"):
         name = record.name[:-len(".lib")]
@@ -254,7 +262,7 @@ def test_a_symbolic_link_of_another_user_on_the_way_is_refused(genuine, shared, 
 def victims(folder: Path) -> dict[Path, bytes]:
     folder.mkdir()
     found = {}
-    for k in range(12):
+    for k in range(16):
         path = folder / f"precious{k}"
         path.write_bytes(f"precious {k}\n".encode())
         found[path] = path.read_bytes()

@@ -15,7 +15,7 @@ import pytest
 
 from anadyn_cli import __version__
 from anadyn_cli.cli import main
-from anadyn_cli.files import csv_text
+from anadyn_cli.output.csv_table import csv_text
 from anadyn_cli import progress
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -27,7 +27,7 @@ import pytest
 
 import anadyn
 from anadyn_cli.cli import main
-from anadyn_cli.files import write_csv
+from anadyn_cli.output.csv_table import write_csv
 from anadyn_cli.studies.identification import estimate
 from anadyn_cli.studies.identification.base import base_parameters, random_states
 from anadyn_cli.studies.identification.regressor import parametric_model

@@ -99,8 +99,9 @@ def test_a_cold_run_on_the_kernel_generates_no_code(monkeypatch, tmp_path, capsy
     figures = json.loads((tmp_path / "o" / "linearize.json").read_text())
     assert (figures["evaluator"], figures["formulation"], figures["code"]) == (
         "recursive", None, "generic kernel")
-    # the cache holds the URDF's import (for the next run), nothing of the robot's code
-    assert [p.suffix for p in (tmp_path / "cache").iterdir()] == [".json"]
+    # the cache holds the URDF's import and the kernel's record (for the next run),
+    # nothing of the robot's code
+    assert sorted(p.suffix for p in (tmp_path / "cache").iterdir()) == [".json", ".kernel"]
     assert not (tmp_path / "cache-native").exists()
 
 
@@ -160,3 +161,139 @@ def test_a_mass_matrix_singular_to_working_precision_is_refused_by_every_road(
         "anadyn: error: the mass matrix is singular or not positive definite at t = 0 s, "
         "(a = 0.2, b = 0.1, da = 0, db = 0)\n")
     assert not (tmp_path / "o").exists()
+
+
+#: an arm with no parameters and no controller, springs, dampers, friction and a
+#: prismatic joint: its kernel record serves the runs after the first
+PLAIN = """\
+name: plain
+gravity: [0, 0, -9.81]
+coordinates: {a: {initial: 0.3, rate: 0.2}, b: {initial: -0.4}, s: {initial: 0.1}}
+actuators: {T1: {joint: one}, T2: {joint: two}, F3: {joint: slide}}
+bodies:
+  - {name: one, joint: {type: revolute, axis: [0, 0, 1], damping: 0.3}, mass: 2,
+     com: [0.2, 0.1, 0], inertia: {ixx: 0.02, iyy: 0.03, izz: 0.04}}
+  - {name: two, parent: one, joint: {type: revolute, axis: [0, 1, 0], origin: [0.5, 0, 0.1],
+     stiffness: 4, rest: 0.2, friction: 0.1}, mass: 1.5, com: [0.3, 0, 0]}
+  - {name: slide, parent: two, joint: {type: prismatic, axis: [1, 0, 0], origin: [0.6, 0, 0]},
+     mass: 0.5, com: [0.05, 0, 0]}
+"""
+
+
+def _files(folder: Path) -> dict:
+    """A linearization's files, linearize.json without its timings."""
+    figures = json.loads((folder / "linearize.json").read_text())
+    figures.pop("timings")
+    return {"json": figures, **{p.name: p.read_bytes() for p in folder.glob("*.csv")}}
+
+
+def _no_robot_read(monkeypatch) -> None:
+    """From here on, reading a robot, planning its recursions or importing a URDF fails."""
+    import anadyn_cli.model as model
+    from anadyn_cli.model import urdf
+    from anadyn_cli.numeric import recursive
+
+    def refused(*_, **__):
+        raise AssertionError("the robot was read")
+    for module, name in ((model, "robot_from_text"), (recursive, "plan"),
+                         (urdf, "import_urdf")):
+        monkeypatch.setattr(module, name, refused)
+
+
+@pytest.mark.parametrize("name, options", [
+    *((name, options) for name in ("plain", "mimic", "ur5", "double")
+      for options in ([], ["--at"], ["--efforts", "zero"])),
+    ("double", ["--equilibrium", "--efforts", "zero"]), ("ur5", ["--efforts", "holding"])])
+def test_runs_after_the_first_are_served_by_the_kernels_record_with_the_same_files(
+        name, options, monkeypatch, tmp_path):
+    """The first run keeps the kernel's tables beside the cache entry; the next runs
+    linearize from them without reading the robot, and every file is the same, to
+    the bit, as a run that reads the robot (--no-cache)."""
+    path = {"mimic": MIMIC, "ur5": REPO / "robots" / "ur5.urdf",
+            "double": REPO / "robots" / "double_pendulum.urdf"}.get(name)
+    if path is None:
+        path = tmp_path / "plain.yaml"
+        path.write_text(PLAIN)
+    if options == ["--at"]:                      # every coordinate and a rate
+        names = [c.name for c in robot_from_text(*_text(path)).coordinates]
+        options = ["--at", ",".join(f"{c}=0.1*{k + 1}" for k, c in enumerate(names))
+                   + f",d{names[0]}=-pi/7"]
+    kernel_road(monkeypatch)
+    monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "cache"))
+    run = ["linearize", str(path), *options, "--out"]
+    assert main([*run, str(tmp_path / "first")]) == 0
+    assert any(p.suffix == ".kernel" for p in (tmp_path / "cache").iterdir())
+    assert main([*run, str(tmp_path / "unread"), "--no-cache"]) == 0
+    _no_robot_read(monkeypatch)
+    for folder in ("second", "third"):
+        assert main([*run, str(tmp_path / folder)]) == 0
+        assert _files(tmp_path / folder) == _files(tmp_path / "unread") == _files(
+            tmp_path / "first")
+
+
+def _text(path: Path) -> tuple[str, str]:
+    from anadyn_cli.model.yamlsource import read_text
+    return read_text(path)
+
+
+def test_a_simulations_first_run_leaves_the_record_linearize_reads(monkeypatch, tmp_path):
+    kernel_road(monkeypatch)
+    monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "cache"))
+    assert main(["simulate", str(MIMIC), "--t-end", "0.01", "--no-plot",
+                 "--out", str(tmp_path / "s")]) == 0
+    assert main(["linearize", str(MIMIC), "--no-cache", "--out", str(tmp_path / "read")]) == 0
+    _no_robot_read(monkeypatch)
+    assert main(["linearize", str(MIMIC), "--out", str(tmp_path / "recorded")]) == 0
+    assert _files(tmp_path / "recorded") == _files(tmp_path / "read")
+
+
+@pytest.mark.parametrize("file, options, why", [
+    ("rr.yaml", [], "a controller and parameters"),
+    ("plain", ["--symbolic"], "symbolic"),
+    ("plain", ["--formulation", "kane"], "closed forms"),
+    ("plain", ["--evaluator", "closed-form"], "closed forms"),
+    ("params", [], "parameters"),
+    ("laws", [], "a controller"),
+    ("plain", ["ANADYN_GENERIC=0"], "no kernel")])
+def test_what_the_record_does_not_hold_reads_the_robot(file, options, why, monkeypatch,
+                                                        tmp_path):
+    """Control laws (their Jacobian is symbolic), parameters (``at`` may name them),
+    the symbolic form and the closed forms need the robot: it is read on every run."""
+    import anadyn_cli.model as model
+
+    kernel_road(monkeypatch)
+    monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "cache"))
+    path = REPO / "robots" / file
+    if file in ("plain", "params", "laws"):
+        path = tmp_path / f"{file}.yaml"
+        path.write_text({"plain": PLAIN,
+                         "params": PLAIN.replace("name: plain", "name: params\nparameters: {m: 2}")
+                         .replace("mass: 2,", "mass: m,"),
+                         "laws": PLAIN + "controller:\n  gains: {k: 3}\n  laws: {T1: -k*a, "
+                                         "T2: -k*db, F3: 0}\n"}[file])
+    assert main(["linearize", str(path), "--out", str(tmp_path / "first")]) == 0
+    reads = []
+    read = model.robot_from_text
+    monkeypatch.setattr(model, "robot_from_text", lambda *a, **k: reads.append(1) or read(*a, **k))
+    if options == ["ANADYN_GENERIC=0"]:
+        monkeypatch.setenv("ANADYN_GENERIC", "0")
+        options = []
+    assert main(["linearize", str(path), *options, "--out", str(tmp_path / "second")]) == 0
+    assert reads == [1], why
+
+
+def test_a_damaged_record_is_a_miss_said_once(monkeypatch, tmp_path, capsys):
+    kernel_road(monkeypatch)
+    monkeypatch.setenv("ANADYN_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "plain.yaml"
+    path.write_text(PLAIN)
+    assert main(["linearize", str(path), "--out", str(tmp_path / "first")]) == 0
+    record = next(p for p in (tmp_path / "cache").iterdir() if p.suffix == ".kernel")
+    data = bytearray(record.read_bytes())
+    data[-5] ^= 1
+    record.write_bytes(bytes(data))
+    capsys.readouterr()
+    assert main(["linearize", str(path), "--out", str(tmp_path / "second")]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "first-run record" in err and "damaged" in err, err
+    assert _files(tmp_path / "second") == _files(tmp_path / "first")

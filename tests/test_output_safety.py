@@ -14,6 +14,7 @@ import pytest
 
 from anadyn_cli import files as output
 from anadyn_cli.output import plots
+from anadyn_cli.output.csv_table import write_csv
 from anadyn_cli.cli import main
 from anadyn_cli.errors import ModelError
 
@@ -288,7 +289,7 @@ def leftovers(folder: Path) -> list[str]:
 
 def test_writers_leave_only_their_files(tmp_path):
     t = np.linspace(0, 1, 11)
-    output.write_csv(tmp_path / "a.csv", ["t", "x"], [t, t**2])
+    write_csv(tmp_path / "a.csv", ["t", "x"], [t, t**2])
     output.write_json(tmp_path / "a.json", {"rows": 11, "error": np.float64(1e-9)})
     output.write_text(tmp_path / "a.txt", "done\n")
     plots.write_plot(tmp_path / "a.png", t, [("x", [("x", t**2)])], "title")
@@ -353,7 +354,7 @@ def test_interrupted_write_leaves_no_temporary_file(tmp_path, monkeypatch, faili
         monkeypatch.setattr(os, failing, fail)
     expected = type(error) if isinstance(error, KeyboardInterrupt) else output.WriteError
     with pytest.raises(expected):
-        output.write_csv(target, ["t"], [np.arange(1000.0)])
+        write_csv(target, ["t"], [np.arange(1000.0)])
     monkeypatch.undo()
     assert target.read_text() == "old\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["simulate.csv"]

@@ -713,3 +713,27 @@ def test_the_c_source_is_the_same_in_every_process(repo):
                               check=True, env={**os.environ, "PYTHONHASHSEED": seed}).stdout
                for seed in ("1", "2")}
     assert len(digests) == 1 and len(digests.pop().strip()) == 64
+
+
+def test_the_plans_rotations_are_the_exact_matrices_rounded_once():
+    """``plan``'s joint rotations (128-bit arithmetic, each entry rounded once) are,
+    to the bit, the exact Rz Ry Rx evaluated to 30 digits and rounded: multiples of
+    pi/4 (exact zeros, ones and sqrt(2)/2), URDF decimals, random rationals."""
+    import itertools
+    import random
+
+    from anadyn_cli.numeric.recursive.plan import _rotation_numbers
+    from anadyn_cli.symbolic.kinematics import rpy_rotation
+
+    rng = random.Random(7)
+    cases = [[sp.pi * k / 4 for k in ks] for ks in itertools.product(range(-4, 5, 2), repeat=3)]
+    cases += [[sp.Rational(15708, 10000), 0, sp.Rational(-31416, 10000)],
+              [sp.Rational(1, 10**12), 0, 0]]
+    cases += [[sp.Rational(rng.randint(-40000, 40000), 10000) if rng.random() < 0.7
+               else sp.Integer(0) for _ in range(3)] for _ in range(150)]
+    for rpy in cases:
+        exact = rpy_rotation([sp.sympify(a) for a in rpy])
+        numbers, identity = _rotation_numbers([sp.sympify(a) for a in rpy])
+        assert numbers == [[float(exact[i, j].evalf(30)) for j in range(3)] for i in range(3)], rpy
+        assert identity == (numbers == [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]])
+    assert _rotation_numbers([0, 0, 0])[1] and not _rotation_numbers([sp.pi, 0, 0])[1]

@@ -281,8 +281,16 @@ def test_imported_arm_simulates_as_pinocchio_slow(name, tmp_path, monkeypatch):
 # -- round trip ------------------------------------------------------------------------------
 @pytest.mark.parametrize("path", URDFS, ids=[p.stem for p in URDFS])
 def test_text_is_the_data(path):
+    """The text reads back, by safe_load and by anadyn's reader, as the description
+    the import made, which the loader takes without parsing the text again."""
+    from anadyn_cli.model.urdf import description
+    from anadyn_cli.model.yamlschema import load
+
     imported = import_file(path)
     assert yaml.safe_load(imported.text) == imported.data
+    assert load(imported.text, path.name)[0] == imported.data
+    assert description(imported.text) is imported.data
+    assert description(imported.text + " ") is None
     assert imported.text.startswith("# Imported by anadyn")
     assert path.name in imported.text.splitlines()[0]
 

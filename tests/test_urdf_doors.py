@@ -205,6 +205,25 @@ def test_massless_links_between_joints_import_and_agree_with_pinocchio(tmp_path)
 
 
 @pytest.mark.skipif(ERD is None, reason="example-robot-data is not installed")
+def test_every_import_reads_back_as_its_description():
+    """The loader builds a robot imported in the same process from the import's
+    description, not from its text (``urdf.description``): the two are equal for
+    every URDF of example-robot-data that imports."""
+    from anadyn_cli.errors import ModelError
+    from anadyn_cli.model.yamlschema import load
+
+    count = 0
+    for path in sorted(ERD.glob("**/*.urdf")):
+        try:
+            imported = import_file(path, fix_base=True)
+        except ModelError:
+            continue
+        assert load(imported.text, path.name)[0] == imported.data, path
+        count += 1
+    assert count >= 50
+
+
+@pytest.mark.skipif(ERD is None, reason="example-robot-data is not installed")
 def test_human_urdf_imports_and_agrees_with_pinocchio():
     path = ERD / "human_description/robots/human.urdf"
     imported = import_file(path)

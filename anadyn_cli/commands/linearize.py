@@ -39,24 +39,30 @@ def linearize(
     formulation: Formulation = FormulationOpt,
     evaluator: Evaluator = EvaluatorOpt,
     out: Path = OutOpt,
-    cache: bool = typer.Option(True, help="Reuse a URDF's import from the cache."),
+    cache: bool = typer.Option(True, help="Reuse a URDF's import, and what an earlier run "
+                                          "read of the robot, from the cache."),
 ) -> None:
     """A = d(dx/dt)/dx and B = d(dx/dt)/d(tau) about an operating point, the closed-loop A
     under the file's control laws, eigenvalues with natural frequencies and damping ratios,
     and the controllability rank: linearize.json and linearize_*.csv."""
     import time
 
+    from ..model import Robot
     from ..numeric.build import robot_of
     from ..services import linearize as service
 
     start = time.perf_counter()
     timings: dict = {}
-    model = robot_of(robot, cache)
+    plain = not symbolic and formulation is None and evaluator in (None, Evaluator.recursive)
+    model = robot_of(robot, cache, service.serves if plain else None)
+    if not isinstance(model, Robot):             # the kernel's record of an earlier run
+        model = service.RecordedRobot(model)
     timings["load"] = time.perf_counter() - start
     service.check_efforts(model, efforts.value, service.parse_at(at, model))   # before any work
     result = service.linearize(model, None if formulation is None else formulation.value, at,
                                equilibrium, symbolic, timings, efforts=efforts.value,
-                               evaluator=None if evaluator is None else evaluator.value)
+                               evaluator=None if evaluator is None else evaluator.value,
+                               use_cache=cache)
     written = service.write(result, out_dir(out, model.name))
     echo_table(service.report(result), "linearize_*.csv")
     typer.echo(time_line(timings, start))

@@ -147,7 +147,8 @@ def joint_limit_infos(robot) -> tuple[JointLimitInfo, ...]:
                                                    for k in ("lower", "upper", "velocity")):
             continue
         theta = body.joint.displacement.xreplace(values)
-        rate = sp.Add(*[sp.diff(theta, c.symbol) * c.rate_symbol for c in robot.coordinates])
+        rate = sp.Add(*[sp.diff(theta, c.symbol) * c.rate_symbol for c in robot.coordinates
+                        if c.symbol in theta.free_symbols])
         coordinate = next((c for c in robot.coordinates if theta == c.symbol), None)
         label = coordinate.name if coordinate else f"{body.name} ({theta.evalf(6)})"
         unit = body.joint.joint_type.unit

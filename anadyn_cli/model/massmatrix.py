@@ -38,8 +38,10 @@ RANDOM_STATES = 2
 
 
 def _number(expr: sp.Expr, values: dict) -> float:
-    if isinstance(expr, sp.Float) or (isinstance(expr, sp.Integer) and abs(expr) < 2**53):
-        value = float(expr)                           # most entries: the number itself
+    if expr.is_Symbol and expr in values:             # a joint's own coordinate
+        expr = values[expr]
+    if isinstance(expr, (sp.Float, sp.Rational)):     # most entries: the number itself,
+        value = float(expr)                           # rounded once (as evalf does)
         if math.isfinite(value):
             return value
     approximate(expr, values)        # ExpressionError (a ValueError) where it overflows

@@ -115,7 +115,7 @@ def _numeric_model(robot, formulation: str | None, use_cache: bool, timings: dic
         return _from_path(robot, formulation, evaluator, use_cache, timings)
     key = _cache_key(formulation)
     if use_cache:
-        hit = _cached(robot.digest, key, robot.source, timings)
+        hit = _cached(robot.digest, key, robot.source, timings, lambda: robot)
         if hit is not None:
             return _checked(hit, evaluator)
         timings["cache"] = "miss"
@@ -192,28 +192,48 @@ def _generated_model(robot, pl, timings: dict, quick: bool, how: str | None, sto
                      start: float | None = None) -> NumericModel:
     """The robot's own code (generated Python, C by ``how``: ``native.load``) from its
     plan ``pl``; ``quick``: with a ``QuickBuild``; ``store``: into the cache."""
-    from . import generic, native, recursive, trajectory
+    from . import native, recursive
 
     start = time.perf_counter() if start is None else start
     forward = recursive.forward(pl)
     quick = native.QuickBuild.start(native.c_source(forward)) if quick else None
-    generated = recursive.complete(forward)
-    code = recursive.module_source(generated) + trajectory.motion_source(robot)
-    if "def powers(" not in code:     # check's loads' power, dissipation, springs' energy
-        from .closed_form import forces_source
-        code += forces_source(robot)
-    c_text = native.c_source(generated)
+    code, c_text = _generated_texts(robot, forward)
     timings["derive"] = time.perf_counter() - start       # the recursive equations
     info = RobotInfo.from_robot(robot)
     start = time.perf_counter()
     model = native.recursive_model(info, code, c_text, None, timings, how=how, quick=quick)
     timings["compile"] = time.perf_counter() - start
-    if store:             # with the generic kernel's tables: check's integrands
-        tables, _ = generic.pack(pl)
-        cache.store(robot.digest, "recursive", {
-            "code": code, "c": c_text, "robot": info.to_dict(),
-            "tables": None if tables is None else tables.to_dict()})
+    if store:
+        _store(robot.digest, robot, pl, model.source, code, c_text)
     return model
+
+
+def _generated_texts(robot, forward) -> tuple[str, str]:
+    """The robot's generated Python and C from its traced forward dynamics."""
+    from . import native, recursive, trajectory
+
+    generated = recursive.complete(forward)
+    code = recursive.module_source(generated) + trajectory.motion_source(robot)
+    if "def powers(" not in code:     # check's loads' power, dissipation, springs' energy
+        from .closed_form import forces_source
+        code += forces_source(robot)
+    return code, native.c_source(generated)
+
+
+def _store(digest: str, robot, pl, light: str, code: str, c_text: str) -> None:
+    """File the robot's own code under ``digest``: the entry holds what every warm
+    run uses (robot info, the generic kernel's tables for check's integrands, the
+    ``light_source`` of the Python, the C's ``signature``, which names its library),
+    the side file the whole Python and C texts (``cache.store``), read only when a
+    scalar function or a build needs them (``_cached``)."""
+    from . import generic, native
+
+    tables, _ = generic.pack(pl)
+    cache.store(digest, "recursive", {
+        "light": light, "native": native.signature(c_text),
+        "robot": RobotInfo.from_robot(robot).to_dict(),
+        "tables": None if tables is None else tables.to_dict()},
+        texts={"code": code, "c": c_text})
 
 
 #: what a URDF's import is filed under in the derivation cache (``_robot_text``)
@@ -230,7 +250,10 @@ def _robot_text(path: str | Path, use_cache: bool) -> tuple[str, str, tuple | No
     the robot has run (None: nothing to file).  Only errors name places in the URDF
     (``urdf.place``), and the text of a robot that ran raises none."""
     from ..model import library
-    from ..model.yamlsource import read_text
+
+    def read_text(path):                # YAML's reader loaded only for a file read anew
+        from ..model.yamlsource import read_text
+        return read_text(path)
 
     resolved = library.resolve(path)
     if not (use_cache and resolved.suffix.lower() == ".urdf" and resolved.is_file()):
@@ -260,17 +283,32 @@ def _robot_text(path: str | Path, use_cache: bool) -> tuple[str, str, tuple | No
     return entry["code"], name, filed
 
 
-def robot_of(path: str | Path, use_cache: bool):
+def robot_of(path: str | Path, use_cache: bool, recorded=None):
     """The validated ``Robot`` of the file ``path`` (a library name too); under the
     cache, a URDF's import that an earlier run filed is read back (``_robot_text``),
-    and one read now is filed for the next run."""
+    and one read now is filed for the next run.  ``recorded(record)``: whether the
+    kernel record (``generic.Record``) that a cold run of the robot left will do
+    instead; if so that record is returned, and the robot is neither read nor
+    built (under the cache only, with the kernel on and built)."""
     from ..model import robot_from_text
 
     text, source, filed = _robot_text(path, use_cache)
+    if use_cache and recorded is not None and filed is None:
+        from . import generic
+
+        record = generic.read(cache.key(_digest(text), "recursive"), source) \
+            if generic.enabled() else None
+        if record is not None and recorded(record) and generic.kernel() is not None:
+            return record
     robot = robot_from_text(text, source)
     if filed is not None:
         cache.store(filed[0], URDF_IMPORT, filed[1])
     return robot
+
+
+def _digest(text: str) -> str:
+    """The digest a robot read from ``text`` has (``Robot.digest``): its cache key."""
+    return hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
 
 
 def _from_path(path: str | Path, formulation: str | None, evaluator: str | None,
@@ -285,8 +323,9 @@ def _from_path(path: str | Path, formulation: str | None, evaluator: str | None,
 def _from_text(text: str, source: str, formulation: str | None, evaluator: str | None,
                use_cache: bool, timings: dict) -> NumericModel:
     if use_cache:
-        digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
-        hit = _cached(digest, _cache_key(formulation), source, timings)
+        digest = _digest(text)
+        hit = _cached(digest, _cache_key(formulation), source, timings,
+                      lambda: _robot_from_text(text, source))
         if hit is not None:
             return _checked(hit, evaluator)
         if formulation is None:                     # the robot's choice: maybe recursive
@@ -327,25 +366,66 @@ def _recorded(text: str, source: str, digest: str, timings: dict) -> NumericMode
     return model
 
 
-def _cached(digest: str, key: str, source: str, timings: dict) -> NumericModel | None:
+def _cached(digest: str, key: str, source: str, timings: dict, robot) -> NumericModel | None:
     """The cache entry's model (``timings``: the hit, and the cost of the background
-    build that stored it, once: ``background.report``); None on a miss or a damaged
-    entry."""
+    build that stored it, once: ``background.report``); None on a miss, a damaged
+    entry or one of an earlier format.  The recursive path's texts are read from the
+    entry's side file only when needed (``_StoredTexts``; ``robot()`` gives the
+    robot, should they have to be generated again)."""
     entry = cache.load(digest, key)
-    if entry is None:
+    if entry is None or "c" in entry:               # "c": the texts inline (format 2)
         return None
     try:
-        if "c" in entry:                            # the recursive path
+        info = RobotInfo.from_dict(entry["robot"], source)
+        if "native" in entry:                       # the recursive path
             from . import generic, native
-            model = native.recursive_model(RobotInfo.from_dict(entry["robot"], source),
-                                           entry["code"], entry["c"], None)
+            texts = _StoredTexts(digest, entry, robot)
+            model = native.recursive_model(info, texts.code, texts.c, None,
+                                           light=entry["light"],
+                                           name=native.named(entry["native"]))
             model.integrands = generic.stored_energies(entry.get("tables"))
         else:
             model = constrained.model_type(entry["code"])(
-                RobotInfo.from_dict(entry["robot"], source), entry["code"],
-                "kane" if key == "recursive" else key)
+                info, entry["code"], "kane" if key == "recursive" else key)
     except Exception:           # noqa: BLE001  anything wrong with a stored entry is a miss
         return None
     timings["cache"] = "hit"
     background.report(cache.key(digest, key), model.name, timings)
     return model
+
+
+def _robot_from_text(text: str, source: str):
+    """The validated ``Robot`` of ``text`` (read from ``source``)."""
+    from ..model import robot_from_text
+
+    return robot_from_text(text, source)
+
+
+class _StoredTexts:
+    """The generated Python (``code``) and C (``c``) of a recursive cache entry,
+    read from its side file when first asked for (``cache.texts``); when that is
+    missing, damaged or not the entry's (one warning line), generated again from
+    ``robot()`` and filed again."""
+
+    def __init__(self, digest: str, entry: dict, robot):
+        self.digest, self.entry, self.robot = digest, entry, robot
+        self._texts: dict | None = None
+
+    def _read(self) -> dict:
+        if self._texts is None:
+            self._texts = cache.texts(self.digest, "recursive", self.entry)
+        if self._texts is None or not {"code", "c"} <= self._texts.keys():
+            from . import native, recursive
+
+            robot = self.robot()
+            pl = recursive.plan(robot)
+            code, c_text = _generated_texts(robot, recursive.forward(pl))
+            _store(self.digest, robot, pl, native.light_source(code), code, c_text)
+            self._texts = {"code": code, "c": c_text}
+        return self._texts
+
+    def code(self) -> str:
+        return self._read()["code"]
+
+    def c(self) -> str:
+        return self._read()["c"]

@@ -5,8 +5,10 @@
 The last part is a fingerprint of anadyn's own source files, so a new
 version or a changed code generator never reuses stale code.  Entries live
 in $ANADYN_CACHE_DIR, else $XDG_CACHE_HOME/anadyn, else ~/.cache/anadyn,
-one file each; native libraries and their records in the folder beside it,
-``<cache folder>-native`` (``native_directory``).
+one file each, ``KEY.json``, and for what most runs do not read (the recursive
+path's whole generated Python and C) a side file ``KEY.texts`` whose SHA-256
+the entry holds (``store``, ``texts``); native libraries and their records in
+the folder beside it, ``<cache folder>-native`` (``native_directory``).
 
 What is stored there later runs as code, so (docs/explanation/security.md):
 
@@ -44,7 +46,7 @@ from types import CodeType
 from .. import __version__
 from ..errors import ModelError
 
-FORMAT = 2
+FORMAT = 3
 #: the first line of every sealed file: this, the content's SHA-256 (hex), a newline
 SEAL = b"anadyn-sha256 "
 _DIGEST = 64
@@ -307,9 +309,11 @@ def warn(line: str) -> None:
     announce(f"warning: {line}", warning=True)
 
 
-def _read_sealed(folder: Path, name: str, what: str, decode, kind: str):
+def _read_sealed(folder: Path, name: str, what: str, decode, kind: str,
+                 digest: str | None = None):
     """``decode`` of the payload sealed in ``folder / name``; None if there is none.
-    A file that is damaged, foreign or not ``kind`` (``decode`` raises ValueError) is
+    A file that is damaged, foreign or not ``kind`` (``decode`` raises ValueError),
+    or whose payload's SHA-256 is not ``digest`` (when given: another file's), is
     None too, with a warning naming it as ``what`` (it is rebuilt)."""
     path = folder / name
     try:
@@ -318,6 +322,10 @@ def _read_sealed(folder: Path, name: str, what: str, decode, kind: str):
         warn(f"{what} {path} {why}; not used, rebuilt")
         return None
     if data is None:
+        return None
+    if digest is not None and data[len(SEAL):len(SEAL) + _DIGEST] != digest.encode():
+        warn(f"{what} {path} is not the one its cache entry names (its SHA-256 differs: "
+             "another entry's or an older one); not used, rebuilt")
         return None
     payload = unseal(data)
     try:
@@ -330,11 +338,12 @@ def _read_sealed(folder: Path, name: str, what: str, decode, kind: str):
         return None
 
 
-def read_record(folder: Path, name: str, what: str):
+def read_record(folder: Path, name: str, what: str, digest: str | None = None):
     """The JSON value sealed in ``folder / name``; None if there is none.  A file
-    that is damaged, foreign or not JSON is None too, with a warning naming it as
-    ``what`` (it is rebuilt)."""
-    return _read_sealed(folder, name, what, json.loads, "JSON")
+    that is damaged, foreign, not JSON or (given ``digest``) not the one whose
+    payload has that SHA-256 is None too, with a warning naming it as ``what`` (it
+    is rebuilt)."""
+    return _read_sealed(folder, name, what, json.loads, "JSON", digest)
 
 
 def write_record(folder: Path, name: str, value) -> None:
@@ -344,27 +353,55 @@ def write_record(folder: Path, name: str, value) -> None:
 
 # -------------------------------------------------------- derivation entries --
 
+#: the file name ending of an entry's side file (``store``'s ``texts``)
+TEXTS = ".texts"
+
+
 def load(robot_digest: str, formulation: str) -> dict | None:
-    """The stored entry (a mapping with the generated ``code``), or None on a miss."""
+    """The stored entry (a mapping with the generated ``code``, or with ``texts``, the
+    SHA-256 of its side file: ``texts``), or None on a miss."""
     folder = trusted_folder(directory(), create=False)
     if folder is None:
         return None
     entry = read_record(folder, f"{key(robot_digest, formulation)}.json", "cache entry")
     if (not isinstance(entry, dict) or entry.get("digest") != robot_digest
-            or not isinstance(entry.get("code"), str)):
+            or not isinstance(entry.get("code" if "texts" not in entry else "texts"), str)):
         return None
     return entry
 
 
-def store(robot_digest: str, formulation: str, entry: dict) -> None:
+def store(robot_digest: str, formulation: str, entry: dict, texts: dict | None = None) -> None:
+    """File ``entry`` (JSON) as ``KEY.json``.  ``texts`` (names to strings), which
+    most runs do not read, go to the side file ``KEY.texts`` (sealed, written
+    first) and the entry keeps the SHA-256 of its payload, so that only the side
+    file written with it is ever read back (``texts``)."""
     folder = trusted_folder(directory(), create=True)
     if folder is None:
         return
+    name = key(robot_digest, formulation)
     try:
-        write_record(folder, f"{key(robot_digest, formulation)}.json",
-                     {**entry, "digest": robot_digest})
+        if texts is not None:
+            payload = json.dumps(texts).encode()
+            write_private(folder, name + TEXTS, seal(payload))
+            entry = {**entry, "texts": hashlib.sha256(payload).hexdigest()}
+        write_record(folder, f"{name}.json", {**entry, "digest": robot_digest})
     except OSError:
         pass
+
+
+def texts(robot_digest: str, formulation: str, entry: dict) -> dict | None:
+    """The texts stored beside ``entry`` (``store``), read now; None, with a warning
+    line, when its side file is missing, damaged, foreign or not the one the entry
+    names (another entry's, an older one): the caller rebuilds them."""
+    folder = trusted_folder(directory(), create=False)
+    path = directory() / (key(robot_digest, formulation) + TEXTS)
+    value = None if folder is None else read_record(folder, path.name, "cache side file",
+                                                    entry["texts"])
+    if value is None and folder is not None and not path.exists():
+        warn(f"cache side file {path} is missing; rebuilt")
+    if not (isinstance(value, dict) and all(isinstance(v, str) for v in value.values())):
+        return None
+    return value
 
 
 # ------------------------------------------------------------ code objects --

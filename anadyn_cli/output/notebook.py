@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..files import write_csv
+from .csv_table import write_csv
 
 HEAD = TAIL = 3
 

@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import files as output
+from ..output.csv_table import write_csv
 from ..errors import ModelError, NumericalError, SettingError
 from ..model.info import RobotInfo
 
@@ -378,7 +379,7 @@ def to_csv(result: OptimizeResult, path: Path) -> None:
     header = (["t"] + names + ["d" + c for c in names] + ["dd" + c for c in names]
               + result.efforts)
     columns = [result.t, *result.q.T, *result.dq.T, *result.ddq.T, *result.u.T]
-    output.write_csv(path, header, columns)
+    write_csv(path, header, columns)
 
 
 def summary(result: OptimizeResult) -> dict:

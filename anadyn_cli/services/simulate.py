@@ -25,6 +25,7 @@ from ..numeric.build import titled
 from ..numeric.model import NumericModel
 from ..numeric.settings import output_grid, resolve
 from .. import files as output
+from ..output.csv_table import write_csv
 from ..output.notebook import Displayed
 from ..output import plots, tables
 from ..numeric import limits
@@ -141,11 +142,11 @@ def write(result: SimulationResult, out: Path, plot: bool = True, plot_format: s
     header, data = columns(result)
     if not result.solution.success:
         partial = out / "simulate.partial.csv"
-        output.write_csv(partial, header, data)
+        write_csv(partial, header, data)
         raise NumericalError(f"{result.robot.source}: {result.solution.message}; "
                              f"{len(result.t)} rows before it in {partial}")
     written = [out / "simulate.csv"]
-    output.write_csv(written[0], header, data)
+    write_csv(written[0], header, data)
     if plot:
         written.append(plots.plot_path(out, "simulate", plot_format))
         plots.write_plot(written[-1], result.t, _panels(result, rates), plot_title(result),

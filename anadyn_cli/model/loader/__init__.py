@@ -24,6 +24,7 @@ checks) and ``builder`` (the sections in order).
 from __future__ import annotations
 
 import hashlib
+import sys
 from pathlib import Path
 from typing import Mapping
 
@@ -59,9 +60,13 @@ def robot_from_text(text: str, source: str = "<robot>",
     the robot's digest covers them.
 
     Text that a URDF import produced (``urdf.place``) is reported at its place
-    in the URDF (joint and link names), never at a line of the generated YAML."""
+    in the URDF (joint and link names), never at a line of the generated YAML;
+    when that import ran in this process, its description is taken as it is
+    (``urdf.description``), not parsed from the text again."""
+    importer = sys.modules.get("anadyn_cli.model.urdf.importer")    # loaded: imports ran
+    data = None if importer is None else importer.description(text)
     try:
-        data, lines = load(text, source)
+        data, lines = (data, {}) if data is not None else load(text, source)
         overrides = dict(parameters or {})
         keyed = text + (f"\n# parameters {sorted(overrides.items())!r}" if overrides else "")
         digest = hashlib.sha256(keyed.encode("utf-8", "surrogatepass")).hexdigest()

@@ -2,7 +2,7 @@
 section group), growing the table of known names, and makes the ``Robot``."""
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import sympy as sp
 
@@ -53,8 +53,11 @@ class _RobotBuilder(_Numbers, _Bodies, _Compound, _Spherical, _Forces, _Checks, 
         self.owner[name] = what
         self.kinds[name] = what
 
-    def unavailable(self, allowed: Mapping[str, object]) -> dict[str, str]:
-        return {name: what for name, what in self.kinds.items() if name not in allowed}
+    def unavailable(self, allowed: Mapping[str, object]) -> Mapping[str, str]:
+        """What each name of the file that ``allowed`` does not hold is ("time", "a
+        body", ...), for the expression reader's messages: a view, looked up only
+        when a name is not found (a robot has hundreds of names and expressions)."""
+        return _Unavailable(self.kinds, allowed)
 
     def build(self) -> Robot:
         top = self.root.mapping(TOP_KEYS, required=("coordinates", "bodies"))
@@ -119,3 +122,21 @@ class _RobotBuilder(_Numbers, _Bodies, _Compound, _Spherical, _Forces, _Checks, 
             for item in bodies:
                 if isinstance(item, dict) and isinstance(item.get("name"), str):
                     self.kinds.setdefault(item["name"], "a body")
+
+
+class _Unavailable(Mapping):
+    """The items of ``kinds`` whose names ``allowed`` does not hold (a view)."""
+
+    def __init__(self, kinds: Mapping[str, str], allowed: Mapping[str, object]):
+        self._kinds, self._allowed = kinds, allowed
+
+    def __getitem__(self, name: str) -> str:
+        if name in self._allowed:
+            raise KeyError(name)
+        return self._kinds[name]
+
+    def __iter__(self):
+        return (name for name in self._kinds if name not in self._allowed)
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)

@@ -24,8 +24,9 @@ class Cursor:
 
     def error(self, message: str) -> ModelError:
         path = self.path
-        while path and path not in self.lines:
-            path = re.sub(r"(\.[^.\[]*|\[\d+\])$", "", path)
+        while path and path not in self.lines:  # bodies[2].mass -> bodies[2] -> bodies -> ""
+            shorter = re.sub(r"(\.[^.\[]*|\[\d+\])$", "", path)
+            path = shorter if shorter != path else ""
         return ModelError(message, source=self.source, path=self.path or None,
                           line=self.lines.get(path))
 

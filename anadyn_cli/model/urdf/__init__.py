@@ -53,20 +53,27 @@ policy), ``tree`` (root, floating joints, tree order, mimics), ``reduce``
 (locks, folding, joints that move no mass), ``emit`` (the YAML text) and
 ``importer`` (the steps in order, ``import_file``, ``link_bodies``, ``place``).
 """
-from ..robottext import PLAIN_TEXT, SMALLEST, render
-from .frames import IDENTITY, Pose, compose, matrix_rpy, rpy_matrix
-from .importer import (GRAVITY, Imported, LinkBodies, _Importer, import_file, import_urdf,
-                       link_bodies, place)
-from .inertia import (PSD_TOLERANCE, TRIANGLE_TOLERANCE, MassProperties, combine,
-                      inertia_problem, nearest_valid_moments)
+from importlib import import_module
+
 from .options import INERTIA_POLICIES, READING, ReadingOptions, parse_lock, reading
 from .parse import (DECIMAL, LARGEST, MAX_BYTES, URDF_TYPES, WELDED, XACRO,
                     _parse_xml, read_urdf)
 
-__all__ = ["DECIMAL", "GRAVITY", "IDENTITY", "INERTIA_POLICIES", "LARGEST", "MAX_BYTES",
-           "PLAIN_TEXT", "PSD_TOLERANCE", "Pose", "READING", "ReadingOptions", "SMALLEST",
-           "TRIANGLE_TOLERANCE", "URDF_TYPES", "WELDED", "XACRO", "Imported", "LinkBodies",
-           "MassProperties", "_Importer", "_parse_xml", "combine", "compose", "import_file",
-           "import_urdf", "inertia_problem", "link_bodies", "matrix_rpy",
-           "nearest_valid_moments", "parse_lock", "place", "read_urdf", "reading", "render",
-           "rpy_matrix"]
+#: names loaded on first use: a run that reads a URDF's import back from the cache
+#: (``numeric.build``) reads the file (``read_urdf``) and imports nothing
+_LAZY = {**dict.fromkeys(("PLAIN_TEXT", "SMALLEST", "render"), "..robottext"),
+         **dict.fromkeys(("IDENTITY", "Pose", "compose", "matrix_rpy", "rpy_matrix"), ".frames"),
+         **dict.fromkeys(("GRAVITY", "Imported", "LinkBodies", "_Importer", "description",
+                          "import_file", "import_urdf", "link_bodies", "place"), ".importer"),
+         **dict.fromkeys(("PSD_TOLERANCE", "TRIANGLE_TOLERANCE", "MassProperties", "combine",
+                          "inertia_problem", "nearest_valid_moments"), ".inertia")}
+
+__all__ = sorted(["DECIMAL", "INERTIA_POLICIES", "LARGEST", "MAX_BYTES", "READING",
+                  "ReadingOptions", "URDF_TYPES", "WELDED", "XACRO", "_parse_xml", "parse_lock",
+                  "read_urdf", "reading", *_LAZY])
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(import_module(_LAZY[name], __name__), name)
+    raise AttributeError(f"module 'anadyn_cli.model.urdf' has no attribute {name!r}")

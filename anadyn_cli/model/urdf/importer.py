@@ -32,18 +32,27 @@ class Imported:
     warnings: list[str] = field(default_factory=list)
 
 
-#: YAML text an import in this process produced -> the URDF place of its key
-#: paths (the last few imports), for ``place``
-_PLACES: dict[str, dict[str, str]] = {}
+#: YAML text an import in this process produced -> (its description, the URDF
+#: place of its key paths), the last few imports: for ``place`` and ``description``
+_IMPORTS: dict[str, tuple[dict, dict[str, str]]] = {}
+
+
+def description(text: str) -> dict | None:
+    """The description (anadyn's YAML schema, plain data) that an import in this
+    process produced as ``text``: what reading ``text`` gives, without parsing it
+    again (tests/test_urdf.py, tests/test_urdf_doors.py check they are equal); None otherwise."""
+    known = _IMPORTS.get(text)
+    return None if known is None else known[0]
 
 
 def place(text: str, path: str | None) -> str | None:
     """Where in the URDF the key ``path`` of the robot ``text`` comes from, e.g.
     ``joint 'elbow' (child link 'forearm')`` for ``bodies[2].mass``, when an
     import in this process produced ``text``; None otherwise."""
-    places = _PLACES.get(text)
-    if places is None:
+    known = _IMPORTS.get(text)
+    if known is None:
         return None
+    places = known[1]
     path = path or ""
     while path and path not in places:        # bodies[2].joint.axis -> bodies[2] -> ""
         shorter = re.sub(r"(\.[^.\[]*|\[\d+\])$", "", path)
@@ -168,7 +177,7 @@ class _Importer(_Emit, _Reduce, _Tree, _InertiaPolicy, _Reader):
         footer = self.trajectory_hint(coordinates[0], q[coordinates[0].name]) \
             if coordinates else ""
         text = render(data, header, comments) + footer
-        _PLACES[text] = places
-        while len(_PLACES) > 8:
-            del _PLACES[next(iter(_PLACES))]
+        _IMPORTS[text] = (data, places)
+        while len(_IMPORTS) > 8:
+            del _IMPORTS[next(iter(_IMPORTS))]
         return Imported(data, text, self.warnings)

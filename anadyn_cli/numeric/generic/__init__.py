@@ -45,9 +45,10 @@ from .differences import central_differences
 from .energies import Energies
 from .tables import Tables, pack
 from ..model import NumericModel, PrescribedMotion, run_generated
+from ...model.info import RobotInfo
 
-__all__ = ["Energies", "GenericModel", "Layout", "RECORD", "Tables", "enabled", "first_run",
-           "kernel", "pack", "recorded"]
+__all__ = ["Energies", "GenericModel", "Layout", "RECORD", "Record", "Tables", "enabled",
+           "first_run", "keep", "kernel", "pack", "read", "recorded"]
 
 
 def c_text() -> str:
@@ -252,9 +253,9 @@ def first_run(robot, pl, info, full, own_code, entry: str,
     cache entry ``entry``) in a forked process unless it is being built or failed
     (``background.start``); None when the kernel cannot serve (``enabled``, no
     fork, no kernel, or tables that cannot hold the robot): the caller goes on as
-    before.  What the model is made of is stored beside the entry (``RECORD``), for
-    the runs that come before the robot's own code (``recorded``).  ``timings``:
-    the kernel's compile, the first time ever."""
+    before.  What the model is made of is stored beside the entry (``Record``),
+    for the runs that come before the robot's own code (``recorded``).
+    ``timings``: the kernel's compile, the first time ever."""
     if not _can_serve():
         return None
     tables, _ = pack(pl)
@@ -263,10 +264,10 @@ def first_run(robot, pl, info, full, own_code, entry: str,
     module = kernel(timings)
     if module is None:
         return None
-    layout, small = Layout.of(pl), small_source(pl, robot)
-    _store(entry, {"robot": info.to_dict(), "layout": layout._asdict(), "small": small,
-                   "tables": tables.to_dict()})
-    return _served(GenericModel(info, layout, tables, module, small, full), entry, own_code)
+    record = Record.of(robot, pl, info, tables)
+    keep(entry, record)
+    return _served(GenericModel(info, record.layout, tables, module, record.small, full),
+                   entry, own_code)
 
 
 def stored_energies(stored) -> Energies | None:
@@ -282,9 +283,75 @@ def stored_energies(stored) -> Energies | None:
         return None
 
 
-#: beside the derivation cache entry KEY.json: KEY.kernel, sealed, what the first
-#: run's GenericModel is made of (its robot info, layout, tables and small source)
+#: beside the derivation cache entry KEY.json: KEY.kernel, sealed, a ``Record``
 RECORD = ".kernel"
+
+
+class Record(NamedTuple):
+    """What a cold run's GenericModel is made of, kept beside the robot's cache entry
+    (``RECORD``) so that later runs are served without reading the robot: its info,
+    layout, tables and small source (``small_source``), and the names of its
+    parameters (None in a record written before they were kept)."""
+    info: RobotInfo
+    layout: Layout
+    tables: Tables
+    small: str
+    parameters: tuple[str, ...] | None
+
+    @classmethod
+    def of(cls, robot, pl, info, tables: Tables) -> "Record":
+        """The record of ``robot`` (validated), its plan ``pl``, info and tables."""
+        return cls(info, Layout.of(pl), tables, small_source(pl, robot), tuple(robot.parameters))
+
+    def to_dict(self) -> dict:
+        return {"robot": self.info.to_dict(), "layout": self.layout._asdict(),
+                "small": self.small, "tables": self.tables.to_dict(),
+                "parameters": None if self.parameters is None else list(self.parameters)}
+
+    @classmethod
+    def from_dict(cls, data: dict, source: str) -> "Record":
+        """The stored record of the robot read from ``source`` (its display name);
+        KeyError, TypeError or ValueError when it is damaged."""
+        layout = data["layout"]
+        layout = Layout(*(tuple(str(k) for k in layout[key])
+                          for key in ("coordinates", "speeds", "efforts")),
+                        tuple(tuple(int(i) for i in q) for q in layout["quaternions"]))
+        parameters = data.get("parameters")
+        if not isinstance(data["small"], str):
+            raise TypeError("small source")
+        return cls(RobotInfo.from_dict(data["robot"], source), layout,
+                   Tables.from_dict(data["tables"]), data["small"],
+                   None if parameters is None else tuple(str(p) for p in parameters))
+
+
+def read(entry: str, source: str) -> Record | None:
+    """The ``Record`` beside the cache entry ``entry`` of the robot read from
+    ``source``; None when there is none, or it is damaged (``cache.read_record``
+    warns of a damaged or foreign file)."""
+    from .. import cache
+
+    folder = cache.trusted_folder(cache.directory(), create=False)
+    data = None if folder is None else cache.read_record(folder, entry + RECORD,
+                                                         "first-run record")
+    if not isinstance(data, dict):
+        return None
+    try:
+        return Record.from_dict(data, source)
+    except Exception:           # noqa: BLE001  anything wrong with a stored record is a miss
+        return None
+
+
+def keep(entry: str, record: Record) -> None:
+    """Store ``record`` beside the cache entry ``entry`` (nothing when the cache
+    folder cannot be written)."""
+    from .. import cache
+
+    folder = cache.trusted_folder(cache.directory(), create=True)
+    if folder is not None:
+        try:
+            cache.write_record(folder, entry + RECORD, record.to_dict())
+        except OSError:
+            pass
 
 
 def _can_serve() -> bool:
@@ -300,45 +367,23 @@ def _served(model: GenericModel, entry: str, own_code) -> GenericModel:
     return model
 
 
-def _store(entry: str, record: dict) -> None:
-    from .. import cache
-
-    folder = cache.trusted_folder(cache.directory(), create=True)
-    if folder is not None:
-        try:
-            cache.write_record(folder, entry + RECORD, record)
-        except OSError:
-            pass
-
-
 def recorded(entry: str, source: str, full, own_code) -> GenericModel | None:
     """The GenericModel of an earlier cold run of the robot whose derivation cache
-    entry is ``entry`` (its RECORD; ``source``: the robot's display name), with no
-    robot read: a run that comes while the robot's own code is being built (or
+    entry is ``entry`` (its ``Record``; ``source``: the robot's display name), with
+    no robot read: a run that comes while the robot's own code is being built (or
     after it failed) is served as the first was, from the same numbers.  As in
     ``first_run``, ``own_code()`` is started unless it is being built or failed,
     ``full()`` builds the generated Python for what the kernel does not do.  None
     when there is no such record (or it is damaged, or the kernel cannot serve)."""
-    from .. import cache
-    from ...model.info import RobotInfo
-
     if not _can_serve():
         return None
-    folder = cache.trusted_folder(cache.directory(), create=False)
-    record = None if folder is None else cache.read_record(folder, entry + RECORD,
-                                                           "first-run record")
-    if not isinstance(record, dict):
-        return None
-    module = kernel()
+    record = read(entry, source)
+    module = None if record is None else kernel()
     if module is None:
         return None
     try:
-        tables = Tables.from_dict(record["tables"])
-        layout = record["layout"]
-        layout = Layout(*(tuple(layout[k]) for k in ("coordinates", "speeds", "efforts")),
-                        tuple(tuple(int(i) for i in q) for q in layout["quaternions"]))
-        model = GenericModel(RobotInfo.from_dict(record["robot"], source), layout, tables,
-                             module, record["small"], full)
+        model = GenericModel(record.info, record.layout, record.tables, module, record.small,
+                             full)
     except Exception:           # noqa: BLE001  anything wrong with a stored record is a miss
         return None
     return _served(model, entry, own_code)

@@ -35,6 +35,7 @@ import sysconfig
 import tempfile
 import time
 from pathlib import Path
+from typing import Callable
 
 from .. import cache, compile_job
 
@@ -86,11 +87,16 @@ def flags(c_text: str) -> tuple[str, ...]:
     """FLAGS for a module with the Jacobian, for the generic kernel (``generic``) and
     for the regressor (``recursive.regressor``), QUICK_FLAGS for a quick one; and
     NumPy's headers (``_numpy_flags``) where the C includes them."""
-    chosen = FLAGS if any(mark in c_text for mark in ("anadyn_jac", "anadyn_generic",
-                                                       "anadyn_regressor")) else QUICK_FLAGS
-    return (*chosen, *_numpy_flags()) if NUMPY_MARK in c_text else chosen
+    return _options(any(mark in c_text for mark in OPTIMIZED_MARKS), NUMPY_MARK in c_text)
 
 
+def _options(optimized: bool, numpy: bool) -> tuple[str, ...]:
+    chosen = FLAGS if optimized else QUICK_FLAGS
+    return (*chosen, *_numpy_flags()) if numpy else chosen
+
+
+#: in the C of a module compiled at FLAGS (``flags``)
+OPTIMIZED_MARKS = ("anadyn_jac", "anadyn_generic", "anadyn_regressor")
 #: in the C of a module that makes NumPy arrays (``recursive.derivatives``)
 NUMPY_MARK = "#include <numpy/arrayobject.h>"
 
@@ -130,9 +136,31 @@ def suffix() -> str:
 
 
 def module_name(c_text: str) -> str:
-    """Named by a hash of the C text, the whole compile command, Python's version
-    and the extension suffix."""
-    key = "|".join([c_text, " ".join(command(flags(c_text))), sys.version, suffix()])
+    """Named by a hash of the C text's SHA-256, the whole compile command, Python's
+    version and the extension suffix (``named`` of its ``signature``)."""
+    return named(signature(c_text))
+
+
+def signature(c_text: str) -> dict:
+    """What names the module of ``c_text`` besides this machine's compiler, NumPy
+    and Python (``named``): the text's SHA-256 and which flags it compiles at
+    (``flags``).  A few bytes, which the derivation cache entry keeps, so that a
+    warm run finds its library without reading (or hashing) the text."""
+    return {"sha256": hashlib.sha256(c_text.encode()).hexdigest(),
+            "optimized": any(mark in c_text for mark in OPTIMIZED_MARKS),
+            "numpy": NUMPY_MARK in c_text}
+
+
+def named(text: dict) -> str:
+    """The module name of the C text whose ``signature`` is ``text``, under the
+    compile command, Python and extension suffix of this run (so another compiler,
+    flag, NumPy or Python names another library).  ValueError for a malformed one."""
+    if not (isinstance(text, dict) and isinstance(text.get("sha256"), str)
+            and _HEX.fullmatch(text["sha256"]) and isinstance(text.get("optimized"), bool)
+            and isinstance(text.get("numpy"), bool)):
+        raise ValueError("not a C text's signature")
+    line = " ".join(command(_options(text["optimized"], text["numpy"])))
+    key = "|".join([text["sha256"], line, sys.version, suffix()])
     return "_anadyn_" + hashlib.sha256(key.encode()).hexdigest()[:24]
 
 
@@ -395,11 +423,14 @@ def _lowest_priority() -> None:
         pass
 
 
-def load(c_text: str, timings: dict | None = None, how: str | None = None):
+def load(c_text: str | Callable[[], str], timings: dict | None = None,
+         how: str | None = None, name: str | None = None):
     """(module, note): the library built from ``c_text`` if cached (and whole);
     else, by ``how`` ("auto", "wait", "off"; default ``mode()``), build it in the
     background (module None: this run uses the generated Python) or now; neither
-    after a failed build."""
+    after a failed build.  With ``name``, the module's (``named``), ``c_text`` may
+    be a function that gives the text, called only to build it: a warm run
+    loads its library without the text."""
     timings = {} if timings is None else timings
     how = how or mode()
     if how == "off":
@@ -407,7 +438,7 @@ def load(c_text: str, timings: dict | None = None, how: str | None = None):
     why = unavailable()
     if why:
         return None, why
-    name = module_name(c_text)
+    name = name or module_name(c_text)
     path = library_path(c_text, name)
     if path is not None:
         module = _import(name, path)
@@ -417,6 +448,7 @@ def load(c_text: str, timings: dict | None = None, how: str | None = None):
     failed = failed_before(cache.trusted_folder(folder(), create=False), name)
     if failed:
         return None, f"native build failed before: {failed}"
+    c_text = c_text() if callable(c_text) else c_text
     if how == "wait":
         return build(c_text, timings)
     return None, build_in_background(c_text)[0]

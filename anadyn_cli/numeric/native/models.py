@@ -11,6 +11,8 @@ a library nothing else changes, since the Python and the C give the same bits
 """
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 
 from ..model import NumericModel, run_generated
@@ -59,18 +61,30 @@ class RecursiveModel(NumericModel):
     most of the source) are each compiled from Python when first called.  With
     a ``QuickBuild``, the run switches to its C as soon as the compiler is
     done, mid-run: the RHS, and the factor of M and the solve with it in the
-    Jacobian (K stays Python); the same bits, sooner."""
+    Jacobian (K stays Python); the same bits, sooner.
 
-    def __init__(self, info, source: str, formulation: str = "recursive",
-                 quick: QuickBuild | None = None):
-        super().__init__(info, light_source(source), formulation)
-        self.full_source = source
+    ``source`` is the generated module, or a function that gives it, called
+    when a scalar function is first asked for (a warm run reads it from the
+    cache only then), with ``light`` its ``light_source``."""
+
+    def __init__(self, info, source: str | Callable[[], str], formulation: str = "recursive",
+                 quick: QuickBuild | None = None, light: str | None = None):
+        self._full = source
+        super().__init__(info, light_source(self.full_source) if light is None else light,
+                         formulation)
         self._factor_tables = self._namespace.get("FACTOR")
         self._scalars: dict = {}
         self._accelerations = self._first_accelerations
         self._jacobian = self._first_jacobian
         self._quick, self._quick_module = quick, None
         self._n2 = self.nq + self.n               # the state [q, u]
+
+    @property
+    def full_source(self) -> str:
+        """The whole generated module (``source``, asked for once)."""
+        if callable(self._full):
+            self._full = self._full()
+        return self._full
 
     def scalar(self, name: str):
         """The generated module's scalar function ``name``, compiled on first use."""
@@ -171,8 +185,9 @@ class NativeModel(RecursiveModel):
     spherical joint has ``rhs`` and ``acc`` only (no Jacobian, inverse or driven
     dynamics): those run as in ``RecursiveModel``."""
 
-    def __init__(self, info, source: str, formulation: str, module):
-        super().__init__(info, source, formulation)
+    def __init__(self, info, source: str | Callable[[], str], formulation: str, module,
+                 light: str | None = None):
+        super().__init__(info, source, formulation, light=light)
         self.native = module
         self._rhs_c, self._acc_c = module.rhs, module.acc
         self._jac_c = getattr(module, "jac", None)
@@ -224,17 +239,21 @@ class NativeModel(RecursiveModel):
             return out.reshape(shape + (n,)), self.actuation(t, q, dq)
 
 
-def recursive_model(info, code: str, c_text: str | None, formulation: str = "recursive",
-                    timings: dict | None = None, how: str | None = None,
-                    quick: QuickBuild | None = None):
+def recursive_model(info, code: str | Callable[[], str], c_text: str | Callable[[], str] | None,
+                    formulation: str = "recursive", timings: dict | None = None,
+                    how: str | None = None, quick: QuickBuild | None = None,
+                    light: str | None = None, name: str | None = None):
     """A NativeModel when the C library is cached (or ``how`` "wait" builds it),
     else the generated Python's RecursiveModel, which takes ``quick``'s C for its
-    RHS once built; ``model.native_note`` says which."""
-    module, why = (None, "no C source") if c_text is None else load(c_text, timings, how)
+    RHS once built; ``model.native_note`` says which.  A warm run gives the texts
+    as functions (read when first needed), the ``light_source`` of ``code`` and
+    the C's module ``name`` (``load``)."""
+    module, why = ((None, "no C source") if c_text is None
+                   else load(c_text, timings, how, name))
     if module is None:
-        model = RecursiveModel(info, code, formulation, quick)
+        model = RecursiveModel(info, code, formulation, quick, light)
         model.native_note = f"generated Python ({why})"
     else:
-        model = NativeModel(info, code, formulation, module)
+        model = NativeModel(info, code, formulation, module, light)
         model.native_note = f"native C ({why})"
     return model

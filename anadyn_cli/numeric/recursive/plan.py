@@ -25,7 +25,6 @@ import sympy as sp
 from ...model.joints import JointType
 from ...model.names import GROUND
 from ...model.robot import Robot
-from ...symbolic.kinematics import rpy_rotation
 from ..contact import ContactPlan, contact_plans
 from ..ir import as_expr
 
@@ -151,6 +150,33 @@ def _num(expr) -> float:
     return float(as_expr(expr).evalf(30))
 
 
+#: bits of the arithmetic of ``_rotation_numbers``, and the size under which one of
+#: its entries is an exact zero (cos(pi/2)): far below a double's resolution of 1
+_PRECISION, _ZERO = 128, 1e-30
+
+
+def _rotation_numbers(rpy) -> tuple[list[list[float]], bool]:
+    """(R = Rz(yaw) Ry(pitch) Rx(roll) as doubles, whether those are 1) for the
+    numeric angles ``rpy``: each angle to 40 digits, its cosine, sine and the
+    products in 128-bit arithmetic (mpmath), each entry rounded once to a double,
+    as the exact matrix's entries evaluated to 30 digits are, at a quarter of the
+    cost (tests/test_recursive.py compares the two)."""
+    import mpmath
+
+    with mpmath.workprec(_PRECISION):
+        c, s = [], []
+        for a in rpy:
+            angle = mpmath.mpf(sp.Float(as_expr(a).evalf(40), 40)._mpf_)
+            c.append(mpmath.cos(angle))
+            s.append(mpmath.sin(angle))
+        (cr, cp, cy), (sr, sp_, sy) = c, s
+        R = [[cy * cp, cy * sp_ * sr - sy * cr, cy * sp_ * cr + sy * sr],
+             [sy * cp, sy * sp_ * sr + cy * cr, sy * sp_ * cr - cy * sr],
+             [-sp_, cp * sr, cp * cr]]
+        numbers = [[0.0 if abs(e) < _ZERO else float(e) for e in row] for row in R]
+    return numbers, numbers == [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+
+
 def plan(robot: Robot) -> Plan:
     """The robot's numbers (parameters substituted) and expressions in internal symbols."""
     values = robot.parameter_substitution()
@@ -172,8 +198,7 @@ def plan(robot: Robot) -> Plan:
     for body in robot.bodies:
         joint = body.joint
         parent = None if body.parent == GROUND else index[body.parent]
-        C = rpy_rotation([expr(a) for a in joint.rpy])
-        Cf = [[_num(C[i, j]) for j in range(3)] for i in range(3)]
+        Cf, C_identity = _rotation_numbers([expr(a) for a in joint.rpy])
         mass = _num(expr(body.mass))
         com = [_num(expr(c)) for c in body.com]
         I_c = [[_num(expr(body.inertia[i, j])) for j in range(3)] for i in range(3)]
@@ -188,7 +213,7 @@ def plan(robot: Robot) -> Plan:
         bodies.append(BodyPlan(
             name=body.name, parent=parent, joint_type=kind,
             axis=[_num(expr(a)) for a in joint.axis], C=Cf,
-            C_identity=(C == sp.eye(3)),
+            C_identity=C_identity,
             origin=[_num(expr(o)) for o in joint.origin], mass=mass,
             h=[mass * c for c in com], com=com, I_O=I_O, joint=j_index,
             displacement=expr(joint.displacement) if kind.moving else None,

@@ -12,6 +12,7 @@ from ...errors import CheckFailed
 from ...model.info import RobotInfo
 from ...numeric import constrained, contact_run, integrators
 from ... import files as output
+from ...output.csv_table import write_csv
 from .path import PROBE_RTOLS, Momentum, Probe
 
 UNDAMPED = 1e-6               # fastest decay x horizon below this: nothing decays
@@ -270,7 +271,7 @@ def write(report: StabilityReport, out: Path) -> list[Path]:
         0, len(report.condition_t) - 1)
     forces = ([] if report.load_work is None else
               [("load_work", report.load_work[rows]), ("dissipated", report.dissipated[rows])])
-    output.write_csv(written[0], ["t", "fastest_decay", "fastest_growth", "fastest_rate",
+    write_csv(written[0], ["t", "fastest_decay", "fastest_growth", "fastest_rate",
                                   "stiffness_ratio", "mass_condition", "mass_condition_scaled",
                                   "energy_residual", "actuator_work", *(f[0] for f in forces)],
                      [report.sample_t, report.decay, report.growth, report.speed,

@@ -15,6 +15,7 @@ from ...model.info import RobotInfo
 from ...numeric import constrained, contact_inverse
 from ...numeric.build import titled
 from ...numeric.measured import MeasuredMotion
+from ...output.csv_table import write_csv
 from ...output.notebook import Displayed
 from ...numeric import limits
 from .dynamics import InverseDynamics
@@ -234,7 +235,7 @@ def write(result: InverseResult, out: Path, plot: bool = True, plot_format: str 
     start = time.perf_counter()
     header, data = columns(result)
     written = [out / "inverse.csv"]
-    output.write_csv(written[0], header, data)
+    write_csv(written[0], header, data)
     if plot:
         written.append(plot_path(out, "inverse", plot_format))
         write_plot(written[-1], result.t, _panels(result, rates), plot_title(result))

@@ -37,18 +37,26 @@ dimension of the controllable subspace, grown one orthonormal Krylov block at
 a time (the staircase form; better conditioned than the rank of
 [B, AB, ..., A^(2n-1) B]), and each mode gets the Popov-Belevitch-Hautus test.
 
+On the generic kernel, the runs after the first read no robot: the first keeps the
+kernel's tables beside the robot's cache entry (a cold ``simulate``, ``inverse`` or
+``check`` does too), and a robot that the record holds whole (``recorded.serves``:
+no control laws, no parameters) is linearized from it (``RecordedRobot``), with
+the same numbers to the bit.
+
 One module per job: ``point`` (the operating point, the equilibrium search),
 ``equations`` (the evaluators' interface, the closed forms differentiated once),
 ``recursive`` (the recursive evaluator: the kernel's or the generated code),
+``recorded`` (a robot as the kernel's record holds it),
 ``state_space`` (``linearize``), ``modes`` (eigenvalues, controllability),
 ``parametric`` (the symbolic form), ``writing`` (files, summary, report).
 """
 from .point import EFFORTS, EQUILIBRIUM_TOL, OperatingPoint, check_efforts, parse_at
 from .modes import RANK_TOL, controllability_rank, modes
 from .parametric import symbolic_form
+from .recorded import RecordedRobot, serves
 from .state_space import Linearization, linearize
 from .writing import report, summary, write
 
 __all__ = ["EFFORTS", "EQUILIBRIUM_TOL", "OperatingPoint", "check_efforts", "parse_at",
            "RANK_TOL", "controllability_rank", "modes", "symbolic_form", "Linearization",
-           "linearize", "report", "summary", "write"]
+           "linearize", "RecordedRobot", "serves", "report", "summary", "write"]

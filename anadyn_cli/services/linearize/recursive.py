@@ -32,19 +32,30 @@ def covers(robot) -> bool:
     return not robot.spherical
 
 
-def road(robot, timings: dict | None = None) -> Road:
-    """The recursive evaluator of ``robot`` (covered): ``KernelEquations`` when the
-    generic kernel can serve it (built now the first time ever, its compile in
-    ``timings``), else ``RecursiveEquations`` with the reason in its ``code``."""
-    from ...numeric import generic, native, recursive as traced
+def road(robot, timings: dict | None = None, use_cache: bool = False) -> Road:
+    """The recursive evaluator of ``robot`` (covered; or a ``RecordedRobot``, read
+    only when the kernel is built: ``numeric.build.robot_of``): ``KernelEquations`` when the generic kernel can serve it (built now
+    the first time ever, its compile in ``timings``), else ``RecursiveEquations``
+    with the reason in its ``code``.  ``use_cache``: the kernel's tables are kept
+    beside the robot's cache entry (``generic.keep``), for the next run's
+    ``RecordedRobot``."""
+    from ...numeric import cache, generic, native, recursive as traced
+    from ...model.info import RobotInfo
+    from .recorded import RecordedRobot
 
+    if isinstance(robot, RecordedRobot):         # read only with the kernel built
+        return KernelEquations(robot, robot.record.tables, generic.kernel(timings))
     if not generic.enabled():
         switch = "ANADYN_NATIVE" if native.mode() != "auto" else "ANADYN_GENERIC"
         why = f"the generic kernel is off: {switch}={os.environ.get(switch, '')}"
     else:
-        tables, why = generic.pack(traced.plan(robot))
+        pl = traced.plan(robot)
+        tables, why = generic.pack(pl)
         module = None if tables is None else generic.kernel(timings)
         if module is not None:
+            if use_cache:
+                generic.keep(cache.key(robot.digest, "recursive"),
+                             generic.Record.of(robot, pl, RobotInfo.from_robot(robot), tables))
             return KernelEquations(robot, tables, module)
         why = why or "no generic kernel: native code cannot be built here"
     return RecursiveEquations(robot, f"generated Python ({why})")

@@ -47,15 +47,17 @@ class Linearization:
 def linearize(robot, formulation: str | None = None, at: str | None = None,
               equilibrium: bool = False, symbolic: bool = False,
               timings: dict | None = None, eom=None, efforts: str = "auto",
-              evaluator: str | None = None) -> Linearization:
-    """Linearize ``robot`` (a validated Robot) about the operating point (see module doc).
+              evaluator: str | None = None, use_cache: bool = False) -> Linearization:
+    """Linearize ``robot`` (a validated Robot, or a ``recorded.RecordedRobot``) about
+    the operating point (see module doc).
 
     ``efforts``: where the point's efforts come from unless ``at`` gives them: "auto"
     (the controller, else holding, else zero), "controller", "holding" (static holding
     efforts, e.g. to design a controller about a set point), "zero".  ``evaluator``
     and ``formulation`` choose the numbers' road as ``numeric.build`` does
     (``equations_of``); ``eom``: the closed forms to differentiate, when the caller
-    has them."""
+    has them.  ``use_cache``: on the generic kernel, its tables are kept beside the
+    robot's cache entry for the next run (``recursive.road``)."""
     from ...model.constraints import refuse_closed_chain
 
     timings = {} if timings is None else timings
@@ -68,7 +70,7 @@ def linearize(robot, formulation: str | None = None, at: str | None = None,
         raise SettingError("equilibrium", "with efforts 'holding': holding efforts make a "
                                           "state at rest an equilibrium by construction; give "
                                           "the state in 'at'")
-    eq = equations_of(robot, formulation, evaluator, eom, timings)
+    eq = equations_of(robot, formulation, evaluator, eom, timings, use_cache)
     start = time.perf_counter()
 
     names = [c.name for c in robot.coordinates]
@@ -127,7 +129,7 @@ def linearize(robot, formulation: str | None = None, at: str | None = None,
 
 
 def equations_of(robot, formulation: str | None, evaluator: str | None, eom,
-                 timings: dict) -> Road:
+                 timings: dict, use_cache: bool = False) -> Road:
     """The road to the numbers: the closed forms of ``eom``, or of ``formulation``
     ("kane", "lagrange") when it is named or ``evaluator`` is "closed-form" (Kane's
     then), else the recursive evaluator (``recursive.road``: the generic kernel, else
@@ -152,7 +154,7 @@ def equations_of(robot, formulation: str | None, evaluator: str | None, eom,
     start = time.perf_counter()
     if eom is None and formulation is None and evaluator != "closed-form" \
             and recursive.covers(robot):
-        eq = recursive.road(robot, timings)
+        eq = recursive.road(robot, timings, use_cache)
         timings["derive"] = (time.perf_counter() - start          # the plan and tables, or
                              - timings.get("native_compile", 0.0))  # the generated derivatives
         return eq

@@ -43,8 +43,9 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ModelError, SettingError
-from ...files import one_set, prepare_dir, write_csv, write_json, write_text
+from ...files import one_set, prepare_dir, write_json, write_text
 from ...numeric import measured
+from ...output.csv_table import write_csv
 from .base import BaseParameters, base_parameters
 from .regressor import INERTIA_ENTRIES, ParametricModel
 from .robotfile import body_entries, number, source_data, text_of

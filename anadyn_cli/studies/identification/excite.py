@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ModelError, SettingError
-from ...files import one_set, prepare_dir, write_csv, write_json, write_text
+from ...files import one_set, prepare_dir, write_json, write_text
+from ...output.csv_table import write_csv
 from .base import BaseParameters, base_parameters
 from .regressor import ParametricModel, value_of
 from .robotfile import source_data, text_of
