@@ -37,11 +37,11 @@ def road(robot, timings: dict | None = None, use_cache: bool = False) -> Road:
     only when the kernel is built: ``numeric.build.robot_of``): ``KernelEquations`` when the generic kernel can serve it (built now
     the first time ever, its compile in ``timings``), else ``RecursiveEquations``
     with the reason in its ``code``.  ``use_cache``: the kernel's tables are kept
-    beside the robot's cache entry (``generic.keep``), for the next run's
-    ``RecordedRobot``."""
+    beside the robot's cache entry (``generic.keep``) when the next run can
+    linearize from them (``recorded.serves``: its ``RecordedRobot``)."""
     from ...numeric import cache, generic, native, recursive as traced
     from ...model.info import RobotInfo
-    from .recorded import RecordedRobot
+    from .recorded import RecordedRobot, serves
 
     if isinstance(robot, RecordedRobot):         # read only with the kernel built
         return KernelEquations(robot, robot.record.tables, generic.kernel(timings))
@@ -53,9 +53,10 @@ def road(robot, timings: dict | None = None, use_cache: bool = False) -> Road:
         tables, why = generic.pack(pl)
         module = None if tables is None else generic.kernel(timings)
         if module is not None:
-            if use_cache:
-                generic.keep(cache.key(robot.digest, "recursive"),
-                             generic.Record.of(robot, pl, RobotInfo.from_robot(robot), tables))
+            record = (generic.Record.of(robot, pl, RobotInfo.from_robot(robot), tables)
+                      if use_cache else None)
+            if record is not None and serves(record):       # the next run reads it
+                generic.keep(cache.key(robot.digest, "recursive"), record)
             return KernelEquations(robot, tables, module)
         why = why or "no generic kernel: native code cannot be built here"
     return RecursiveEquations(robot, f"generated Python ({why})")
