@@ -204,7 +204,7 @@ def _generated_model(robot, pl, timings: dict, quick: bool, how: str | None, sto
     model = native.recursive_model(info, code, c_text, None, timings, how=how, quick=quick)
     timings["compile"] = time.perf_counter() - start
     if store:
-        _store(robot.digest, robot, pl, model.source, code, c_text)
+        _store(robot.digest, info, pl, model.source, code, c_text)
     return model
 
 
@@ -220,9 +220,9 @@ def _generated_texts(robot, forward) -> tuple[str, str]:
     return code, native.c_source(generated)
 
 
-def _store(digest: str, robot, pl, light: str, code: str, c_text: str) -> None:
+def _store(digest: str, info: RobotInfo, pl, light: str, code: str, c_text: str) -> None:
     """File the robot's own code under ``digest``: the entry holds what every warm
-    run uses (robot info, the generic kernel's tables for check's integrands, the
+    run uses (robot ``info``, the generic kernel's tables for check's integrands, the
     ``light_source`` of the Python, the C's ``signature``, which names its library),
     the side file the whole Python and C texts (``cache.store``), read only when a
     scalar function or a build needs them (``_cached``)."""
@@ -231,7 +231,7 @@ def _store(digest: str, robot, pl, light: str, code: str, c_text: str) -> None:
     tables, _ = generic.pack(pl)
     cache.store(digest, "recursive", {
         "light": light, "native": native.signature(c_text),
-        "robot": RobotInfo.from_robot(robot).to_dict(),
+        "robot": info.to_dict(),
         "tables": None if tables is None else tables.to_dict()},
         texts={"code": code, "c": c_text})
 
@@ -251,13 +251,13 @@ def _robot_text(path: str | Path, use_cache: bool) -> tuple[str, str, tuple | No
     (``urdf.place``), and the text of a robot that ran raises none."""
     from ..model import library
 
-    def read_text(path):                # YAML's reader loaded only for a file read anew
+    def read_anew(path) -> tuple[str, str]:     # YAML's reader loaded only when it reads
         from ..model.yamlsource import read_text
         return read_text(path)
 
     resolved = library.resolve(path)
     if not (use_cache and resolved.suffix.lower() == ".urdf" and resolved.is_file()):
-        return (*read_text(resolved), None)
+        return (*read_anew(resolved), None)
     from ..errors import ModelError, display_name
     from ..model import urdf
 
@@ -267,7 +267,7 @@ def _robot_text(path: str | Path, use_cache: bool) -> tuple[str, str, tuple | No
     except ModelError:
         raw = None
     if raw is None or options.contacts:             # read_text says why
-        return (*read_text(resolved), None)
+        return (*read_anew(resolved), None)
     name = display_name(resolved)
     key = hashlib.sha256(repr((name, options)).encode() + b"\0" + raw).hexdigest()
     entry = cache.load(key, URDF_IMPORT)
@@ -420,7 +420,8 @@ class _StoredTexts:
             robot = self.robot()
             pl = recursive.plan(robot)
             code, c_text = _generated_texts(robot, recursive.forward(pl))
-            _store(self.digest, robot, pl, native.light_source(code), code, c_text)
+            _store(self.digest, RobotInfo.from_robot(robot), pl, native.light_source(code),
+                   code, c_text)
             self._texts = {"code": code, "c": c_text}
         return self._texts
 
