@@ -49,3 +49,13 @@ def quaternion_names(body: object) -> list[str]:
         return [name for name in listed[ORIENTED[word]:] if isinstance(name, str)]
     name = body.get("name")
     return [f"{name}_{part}" for part in QUATERNION] if isinstance(name, str) else []
+
+
+def nearest_key(path: str, keys) -> str:
+    """The longest key path among ``keys`` that ``path`` starts with, parent by parent
+    (``bodies[2].joint.axis`` -> ``bodies[2].joint`` -> ``bodies[2]`` -> ``bodies``),
+    "" when there is none."""
+    while path and path not in keys:
+        shorter = re.sub(r"(\.[^.\[]*|\[\d+\])$", "", path)
+        path = shorter if shorter != path else ""
+    return path

@@ -12,7 +12,7 @@ import sympy as sp
 
 from ...errors import ModelError, shorten
 from .. import expressions
-from ..names import IDENTIFIER, RESERVED_NAMES
+from ..names import IDENTIFIER, RESERVED_NAMES, nearest_key
 from ..yamlschema import describe_value as _kind
 
 
@@ -23,12 +23,8 @@ class Cursor:
         self.value, self.path, self.source, self.lines = value, path, source, lines
 
     def error(self, message: str) -> ModelError:
-        path = self.path
-        while path and path not in self.lines:  # bodies[2].mass -> bodies[2] -> bodies -> ""
-            shorter = re.sub(r"(\.[^.\[]*|\[\d+\])$", "", path)
-            path = shorter if shorter != path else ""
         return ModelError(message, source=self.source, path=self.path or None,
-                          line=self.lines.get(path))
+                          line=self.lines.get(nearest_key(self.path, self.lines)))
 
     def child(self, key: str | int, value: object) -> "Cursor":
         path = f"{self.path}[{key}]" if isinstance(key, int) else (

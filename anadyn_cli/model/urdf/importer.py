@@ -3,13 +3,12 @@
 and ``place`` (where a key of an imported text comes from)."""
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...errors import display_name
 from ..joints import Compound
-from ..names import GROUND
+from ..names import GROUND, nearest_key
 from ..robottext import _format, _Names, render
 from .emit import _Emit
 from .frames import Pose
@@ -53,11 +52,7 @@ def place(text: str, path: str | None) -> str | None:
     if known is None:
         return None
     places = known[1]
-    path = path or ""
-    while path and path not in places:        # bodies[2].joint.axis -> bodies[2] -> ""
-        shorter = re.sub(r"(\.[^.\[]*|\[\d+\])$", "", path)
-        path = shorter if shorter != path else ""
-    return places[path]
+    return places[nearest_key(path or "", places)]
 
 
 def import_file(path: str | Path, fix_base: bool = False, inertia: str = "refuse",
